@@ -1,0 +1,82 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""Exact sampling of continuous-time models: zero-order hold and Van Loan's method."""
+
+import numpy as np
+import scipy.linalg
+
+
+def zero_order_hold(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """
+    Exact zero-order-hold discretization of ``x' = A x + B u`` over ``dt`` seconds.
+
+    Parameters
+    ----------
+    a : numpy.ndarray, shape (n, n)
+    b : numpy.ndarray, shape (n, m)
+    dt : float
+        Sample interval, > 0.
+
+    Returns
+    -------
+    ad : numpy.ndarray, shape (n, n)
+        ``expm(A dt)``.
+    bd : numpy.ndarray, shape (n, m)
+        ``integral_0^dt expm(A s) ds B``.
+
+    """
+    n_states, n_inputs = b.shape
+    block = np.zeros((n_states + n_inputs, n_states + n_inputs))
+    block[:n_states, :n_states] = a * dt
+    block[:n_states, n_states:] = b * dt
+    exponential = scipy.linalg.expm(block)
+    return exponential[:n_states, :n_states], exponential[:n_states, n_states:]
+
+
+def van_loan(a: np.ndarray, process_noise: np.ndarray, dt: float) -> np.ndarray:
+    """
+    Covariance of the sampled process noise (Van Loan's method).
+
+    For ``x' = A x + w`` with white noise of intensity ``Q`` (``process_noise``), the noise
+    added over one interval ``dt`` of the exact discrete model has covariance
+    ``Qd = integral_0^dt expm(A s) Q expm(A s)^T ds``.
+
+    Parameters
+    ----------
+    a : numpy.ndarray, shape (n, n)
+    process_noise : numpy.ndarray, shape (n, n)
+        Continuous-time intensity ``Q``.
+    dt : float
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, n)
+        Symmetric ``Qd``.
+
+    References
+    ----------
+    C. F. Van Loan, "Computing integrals involving the matrix exponential", IEEE Trans.
+    Automatic Control 23(3), 1978.
+
+    """
+    n_states = a.shape[0]
+    block = np.zeros((2 * n_states, 2 * n_states))
+    block[:n_states, :n_states] = -a * dt
+    block[:n_states, n_states:] = process_noise * dt
+    block[n_states:, n_states:] = a.T * dt
+    exponential = scipy.linalg.expm(block)
+    ad_transpose = exponential[n_states:, n_states:]
+    qd = ad_transpose.T @ exponential[:n_states, n_states:]
+    return 0.5 * (qd + qd.T)

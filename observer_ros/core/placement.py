@@ -1,0 +1,334 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Pole placement that checks its own answer.
+
+``place`` picks among several algorithms by the problem (input count, repeated poles),
+verifies the eigenvalues it achieved and raises :class:`DesignError` rather than return a
+wrong gain. ``place_observer`` is its dual for ``A - L C``.
+
+Methods
+-------
+``'place'``
+    Robust eigenstructure assignment (Kautsky-Nichols-Van Dooren / Tits-Yang, through
+    :func:`scipy.signal.place_poles`). Refuses poles repeated more than ``rank(B)`` times.
+``'varga'``
+    Varga's Schur method (SLICOT ``SB01BD`` through :func:`control.place_varga`), which
+    handles repeated poles.
+``'acker'``
+    Ackermann's formula, single input only; ill-conditioned for large ``n``.
+``'direct'``
+    The direct method of the course notes, single input: match the coefficients of
+    ``det(sI - A + B K)`` with the desired polynomial (a linear system in ``K``).
+``'canonical'``
+    Bass-Gura, through the controllable canonical form, single input.
+``'auto'``
+    Try the suitable methods in a sensible order and return the first verified gain.
+"""
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+import scipy.optimize
+import scipy.signal
+
+from observer_ros.core.analysis import controllability_matrix, format_modes
+from observer_ros.core.errors import ConfigError, DesignError
+from observer_ros.core.poles import check_conjugate_pairs, clean_poles
+
+METHODS = ('auto', 'place', 'varga', 'acker', 'direct', 'canonical')
+
+#: Default relative accuracy every achieved pole set must meet.
+DEFAULT_RTOL = 1e-6
+
+#: Relative distance under which two requested poles are treated as one repeated pole.
+REPEATED_RTOL = 1e-6
+
+#: Above this many states the single-input closed forms are not tried by ``'auto'``.
+CLOSED_FORM_MAX_STATES = 12
+
+
+@dataclass(frozen=True)
+class PlacementResult:
+    """
+    Gain from a pole placement and the evidence that it is right.
+
+    Attributes
+    ----------
+    gain : numpy.ndarray
+        ``K`` with ``eig(A - B K)`` at the requested poles (state feedback), or ``L`` with
+        ``eig(A - L C)`` there (observer, from :func:`place_observer`).
+    requested_poles, achieved_poles : numpy.ndarray of complex
+        Sorted the same way, so they can be compared entry by entry.
+    method : str
+        The algorithm that produced the gain.
+    residual : float
+        Relative error of the achieved poles (distinct poles) or of the characteristic
+        polynomial coefficients (repeated poles).
+
+    """
+
+    gain: np.ndarray
+    requested_poles: np.ndarray
+    achieved_poles: np.ndarray
+    method: str
+    residual: float
+
+
+def sort_poles(poles) -> np.ndarray:
+    """Sort by real part, then imaginary part, for side-by-side comparison."""
+    poles = np.asarray(poles, dtype=complex)
+    return poles[np.lexsort((poles.imag, poles.real))]
+
+
+def has_repeated(poles: np.ndarray, rtol: float = REPEATED_RTOL) -> bool:
+    """Whether two poles are equal to within ``rtol`` relative."""
+    return max_multiplicity(poles, rtol) > 1
+
+
+def max_multiplicity(poles: np.ndarray, rtol: float = REPEATED_RTOL) -> int:
+    """Largest number of poles in one cluster of (nearly) equal values."""
+    poles = np.asarray(poles, dtype=complex)
+    best = 0
+    for pole in poles:
+        count = int(np.sum(np.abs(poles - pole) <= rtol * max(1.0, abs(pole))))
+        best = max(best, count)
+    return best
+
+
+def placement_residual(closed_loop: np.ndarray, poles: np.ndarray) -> tuple[float, np.ndarray]:
+    """
+    Relative error between ``eig(closed_loop)`` and ``poles``.
+
+    Distinct poles are matched one to one and compared directly. With repeated poles,
+    whose computed eigenvalues scatter by ``eps^(1/k)`` even for an exact gain, the
+    characteristic polynomial coefficients are compared instead, with ``s`` scaled by the
+    largest pole magnitude so that every coefficient counts alike.
+
+    Returns
+    -------
+    residual : float
+    achieved : numpy.ndarray of complex
+        Eigenvalues, sorted.
+
+    """
+    achieved = sort_poles(np.linalg.eigvals(closed_loop))
+    poles = np.asarray(poles, dtype=complex)
+    if not np.all(np.isfinite(achieved)):
+        return float('inf'), achieved
+    if not has_repeated(poles):
+        cost = np.abs(achieved[:, None] - poles[None, :]) / np.maximum(1.0, np.abs(poles))[None]
+        rows, cols = scipy.optimize.linear_sum_assignment(cost)
+        return float(cost[rows, cols].max()), achieved
+    scale = max(1.0, float(np.abs(poles).max()))
+    powers = scale ** -np.arange(poles.size + 1)
+    wanted = np.real(np.poly(poles)) * powers
+    got = np.real(np.poly(achieved)) * powers
+    return float(np.abs(got - wanted).max() / np.abs(wanted).max()), achieved
+
+
+def _acker(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
+    n_states = a.shape[0]
+    ctrb = controllability_matrix(a, b)
+    coefficients = np.real(np.poly(poles))
+    phi = np.zeros_like(a)
+    for coefficient in coefficients:
+        phi = phi @ a + coefficient * np.eye(n_states)
+    last_row = np.linalg.solve(ctrb.T, np.eye(n_states)[:, -1])
+    return (last_row @ phi).reshape(1, n_states)
+
+
+def _direct(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
+    # det(sI - A + b k) is affine in k for one input: c(k) = c(0) + M k.
+    n_states = a.shape[0]
+    open_loop = np.real(np.poly(a))[1:]
+    columns = [np.real(np.poly(a - np.outer(b[:, 0], unit)))[1:] - open_loop
+               for unit in np.eye(n_states)]
+    wanted = np.real(np.poly(poles))[1:]
+    return np.linalg.solve(np.column_stack(columns), wanted - open_loop).reshape(1, n_states)
+
+
+def _canonical(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
+    # Bass-Gura: K = (alpha - a) W^-1 Ctrb^-1, W the Hankel matrix of the open-loop
+    # coefficients (the transformation to controllable canonical form).
+    n_states = a.shape[0]
+    open_loop = np.real(np.poly(a))[1:]
+    wanted = np.real(np.poly(poles))[1:]
+    hankel = np.zeros((n_states, n_states))
+    extended = np.concatenate([open_loop[::-1][1:], [1.0]])
+    for row in range(n_states):
+        hankel[row, :n_states - row] = extended[row:]
+    ctrb = controllability_matrix(a, b)
+    difference = (wanted - open_loop)[::-1]
+    return np.linalg.solve((ctrb @ hankel).T, difference).reshape(1, n_states)
+
+
+def _scipy_place(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
+    result = scipy.signal.place_poles(a, b, poles, method='YT', maxiter=50)
+    return np.asarray(result.gain_matrix)
+
+
+def _varga(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
+    import control  # slycot is needed; imported lazily so the core imports without it
+    return np.asarray(control.place_varga(a, b, poles))
+
+
+_ALGORITHMS = {
+    'place': _scipy_place,
+    'varga': _varga,
+    'acker': _acker,
+    'direct': _direct,
+    'canonical': _canonical,
+}
+
+_SINGLE_INPUT_ONLY = ('acker', 'direct', 'canonical')
+
+
+def _candidates(method: str, n_states: int, n_inputs: int, poles: np.ndarray) -> list:
+    if method != 'auto':
+        return [method]
+    if n_inputs == 1:
+        order = ['varga', 'place'] if has_repeated(poles) else ['place', 'varga']
+        if n_states <= CLOSED_FORM_MAX_STATES:
+            order.append('acker')
+        return order
+    if max_multiplicity(poles) > n_inputs:
+        return ['varga', 'place']
+    return ['place', 'varga']
+
+
+def _validate_problem(a, b, poles, method):
+    if method not in METHODS:
+        raise ConfigError('method', f'expected one of {", ".join(METHODS)}, got {method!r}')
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    if a.ndim != 2 or a.shape[0] != a.shape[1]:
+        raise ConfigError('A', f'expected a square matrix, got shape {a.shape}')
+    if b.ndim != 2 or b.shape[0] != a.shape[0]:
+        raise ConfigError('B', f'expected {a.shape[0]} rows, got shape {b.shape}')
+    poles = clean_poles(np.atleast_1d(np.asarray(poles, dtype=complex)))
+    if poles.size != a.shape[0]:
+        raise ConfigError(
+            'poles', f'expected {a.shape[0]} poles (one per state), got {poles.size}')
+    check_conjugate_pairs(poles)
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        raise ConfigError('A', 'matrices must be finite')
+    return a, b, poles
+
+
+def place(a, b, poles, method: str = 'auto', rtol: float = DEFAULT_RTOL) -> PlacementResult:
+    """
+    State-feedback gain ``K`` with ``eig(A - B K)`` at ``poles``, verified.
+
+    Parameters
+    ----------
+    a : array_like, shape (n, n)
+    b : array_like, shape (n, m)
+    poles : array_like of complex, shape (n,)
+        Complex poles in conjugate pairs.
+    method : str
+        One of :data:`METHODS`.
+    rtol : float
+        Accepted relative error of the achieved poles (characteristic polynomial
+        coefficients when poles repeat).
+
+    Returns
+    -------
+    PlacementResult
+
+    Raises
+    ------
+    DesignError
+        When no method reaches ``rtol``: the message lists every attempt and why it
+        failed. An uncontrollable pair is reported with its modes.
+    ConfigError
+        For wrong shapes, unpaired complex poles or an unknown method.
+
+    """
+    a, b, poles = _validate_problem(a, b, poles, method)
+    n_states, n_inputs = b.shape
+    if method in _SINGLE_INPUT_ONLY and n_inputs != 1:
+        raise ConfigError(
+            'method', f'{method!r} needs a single input (column), the problem has {n_inputs}')
+    failures = []
+    for candidate in _candidates(method, n_states, n_inputs, poles):
+        try:
+            gain = np.real_if_close(_ALGORITHMS[candidate](a, b, poles))
+            if np.iscomplexobj(gain) or not np.all(np.isfinite(gain)):
+                raise ValueError('the gain is complex or not finite')
+            gain = np.asarray(gain, dtype=float).reshape(n_inputs, n_states)
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError, ImportError) as e:
+            failures.append(f'{candidate}: {e}')
+            continue
+        except Exception as e:  # noqa: B902 - SLICOT wrappers raise their own types
+            failures.append(f'{candidate}: {type(e).__name__}: {e}')
+            continue
+        residual, achieved = placement_residual(a - b @ gain, poles)
+        if residual <= rtol:
+            return PlacementResult(gain=gain, requested_poles=sort_poles(poles),
+                                   achieved_poles=achieved, method=candidate,
+                                   residual=residual)
+        failures.append(
+            f'{candidate}: achieved poles {format_modes(achieved)} are off by {residual:.2g} '
+            f'relative (tolerance {rtol:.1g})')
+    lost = _uncontrollable_modes(a, b)
+    if lost:
+        raise DesignError(
+            f'the pair is not controllable: the modes {format_modes(lost)} cannot be moved '
+            f'(PBH test), so the poles {format_modes(poles)} cannot be placed')
+    raise DesignError(
+        f'no placement method reached the poles {format_modes(poles)} to {rtol:.1g}: '
+        + '; '.join(failures))
+
+
+def _uncontrollable_modes(a: np.ndarray, b: np.ndarray) -> tuple:
+    from observer_ros.core.analysis import pbh_lost_modes
+    return pbh_lost_modes(a.T, b.T)
+
+
+def place_observer(a, c, poles, method: str = 'auto',
+                   rtol: float = DEFAULT_RTOL) -> PlacementResult:
+    """
+    Observer gain ``L`` with ``eig(A - L C)`` at ``poles``, by duality, verified.
+
+    Parameters
+    ----------
+    a : array_like, shape (n, n)
+    c : array_like, shape (p, n)
+    poles : array_like of complex, shape (n,)
+    method, rtol
+        As for :func:`place`.
+
+    Returns
+    -------
+    PlacementResult
+        With ``gain`` of shape ``(n, p)``.
+
+    Raises
+    ------
+    DesignError
+        When the pair is unobservable (the message names the lost modes) or no method
+        reaches the poles.
+
+    """
+    a = np.asarray(a, dtype=float)
+    c = np.atleast_2d(np.asarray(c, dtype=float))
+    try:
+        dual = place(a.T, c.T, poles, method, rtol)
+    except DesignError as e:
+        raise DesignError(
+            str(e).replace('is not controllable', 'is not observable')
+            .replace('cannot be moved', 'cannot be seen from the outputs')) from e
+    return replace(dual, gain=dual.gain.T.copy())

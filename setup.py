@@ -1,0 +1,47 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE_NAME = 'observer_ros'
+
+setup(
+    name=PACKAGE_NAME,
+    version='0.1.0',
+    packages=find_packages(exclude=['test', 'test.*']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE_NAME]),
+        ('share/' + PACKAGE_NAME, ['package.xml']),
+        ('share/' + PACKAGE_NAME + '/config', glob('config/*.yaml')),
+        ('share/' + PACKAGE_NAME + '/launch', glob('launch/*.launch.py')),
+    ],
+    # ROS 2 itself (rclpy, message packages) is deliberately not listed here: on a ROS
+    # install it comes from the distribution; without ROS, requirements.txt pulls the
+    # Jazzy wheels. Listing it would pull a second rclpy into a colcon workspace.
+    install_requires=['setuptools', 'numpy', 'scipy', 'control>=0.10', 'pyyaml'],
+    python_requires='>=3.10',
+    zip_safe=True,
+    maintainer='observer_ros maintainers',
+    maintainer_email='maintainers@observer-ros.dev',
+    description='State observers and observer-based state feedback for ROS 2.',
+    license='Apache-2.0',
+    extras_require={'test': ['pytest']},
+    entry_points={
+        'console_scripts': [
+            'design_observer = observer_ros.tools.design_observer:main',
+        ],
+    },
+)
