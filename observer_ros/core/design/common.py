@@ -1,0 +1,105 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""What every observer design returns, and the state-space form they share."""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from observer_ros.core.analysis import format_modes
+from observer_ros.core.errors import DesignError
+from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.placement import sort_poles
+from observer_ros.core.poles import is_stable
+
+
+@dataclass(frozen=True)
+class ObserverRealization:
+    """
+    An observer as a linear system with inputs ``y`` and ``u`` and output ``x_hat``.
+
+    ``xi' = A xi + B_y y + B_u u`` (or ``xi[k+1] = ...`` for a discrete model) and
+    ``x_hat = C xi + D_y y + D_u u``. Every observer type maps to this form, which the
+    controller transfer function and the closed-loop analysis use.
+    """
+
+    a: np.ndarray
+    b_y: np.ndarray
+    b_u: np.ndarray
+    c: np.ndarray
+    d_y: np.ndarray
+    d_u: np.ndarray
+
+
+@dataclass(frozen=True)
+class ObserverDesign:
+    """
+    Result of an observer design.
+
+    Attributes
+    ----------
+    kind : str
+        ``'full_order'``, ``'reduced_order'``, ``'chen'`` or ``'kalman'``.
+    model : StateSpaceModel
+        The model designed for.
+    gain : numpy.ndarray
+        The observer gain: ``L`` ``(n, p)`` for full order and Kalman (predictor form
+        ``x' = A x + B u + L (y - C x)``), ``L`` ``(n - p, p)`` for the reduced-order and
+        Chen observers.
+    requested_poles, achieved_poles : numpy.ndarray of complex
+        Sorted error-dynamics poles.
+    method : str
+        Algorithm that produced the gain (``'given'`` when the gain was supplied).
+    residual : float
+        Relative error of the verification (poles, or the Sylvester / Riccati residual).
+    realization : ObserverRealization
+        The observer as a system from ``(y, u)`` to ``x_hat``, in the model's coordinates.
+
+    """
+
+    kind: str
+    model: StateSpaceModel
+    gain: np.ndarray
+    requested_poles: np.ndarray
+    achieved_poles: np.ndarray
+    method: str
+    residual: float
+    realization: ObserverRealization
+
+    @property
+    def order(self) -> int:
+        """Number of observer states."""
+        return self.realization.a.shape[0]
+
+
+def check_given_gain_stable(error_matrix: np.ndarray, discrete: bool, parameter: str):
+    """Return the sorted eigenvalues of the error dynamics, or raise if they are unstable."""
+    achieved = sort_poles(np.linalg.eigvals(error_matrix))
+    if not is_stable(achieved, discrete):
+        where = 'outside the unit circle' if discrete else 'in the closed right half-plane'
+        raise DesignError(
+            f'{parameter}: the given gain makes the observer error unstable: poles '
+            f'{format_modes(achieved)} (some {where}); the estimate would diverge')
+    return achieved
+
+
+def require_stable_poles(poles: np.ndarray, discrete: bool, parameter: str) -> None:
+    """Refuse requested observer poles that would not make the error converge."""
+    if not is_stable(poles, discrete):
+        plane = 'inside the unit circle (z-plane, discrete model)' if discrete else \
+            'with negative real parts (s-plane, continuous model)'
+        raise DesignError(
+            f'{parameter}: requested poles {format_modes(poles)} are not stable; expected '
+            f'poles {plane}')

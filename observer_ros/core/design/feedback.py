@@ -1,0 +1,118 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""State feedback ``u = -K x_hat + N r`` with a reference gain for unit DC gain."""
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from observer_ros.core.analysis import format_modes, require_controllable
+from observer_ros.core.errors import ConfigError, DesignError
+from observer_ros.core.model import matrix_from_flat, StateSpaceModel
+from observer_ros.core.placement import place, sort_poles
+from observer_ros.core.poles import is_stable
+
+
+@dataclass(frozen=True)
+class FeedbackDesign:
+    """
+    State-feedback design.
+
+    Attributes
+    ----------
+    gain : numpy.ndarray, shape (m, n)
+        ``K`` in ``u = -K x``.
+    requested_poles, achieved_poles : numpy.ndarray of complex
+        Sorted poles of ``A - B K``.
+    method : str
+    residual : float
+    reference_gain : numpy.ndarray or None, shape (m, p)
+        ``N`` giving unit DC gain from ``r`` to ``y`` (square systems without a zero at
+        ``s = 0`` / ``z = 1``), else None.
+
+    """
+
+    gain: np.ndarray
+    requested_poles: np.ndarray
+    achieved_poles: np.ndarray
+    method: str
+    residual: float
+    reference_gain: Optional[np.ndarray]
+
+
+def reference_gain(model: StateSpaceModel, gain: np.ndarray) -> Optional[np.ndarray]:
+    """
+    ``N`` with unit DC gain from ``r`` to ``y`` under ``u = -K x + N r``, or None.
+
+    The closed-loop DC gain is ``G0 = (C - D K) (-(A - B K))^-1 B + D`` (continuous) or with
+    ``(I - (A - B K))^-1`` (discrete); ``N = G0^-1`` when ``G0`` is square and invertible.
+    """
+    if model.n_inputs != model.n_outputs:
+        return None
+    closed = model.a - model.b @ gain
+    resolvent = (np.eye(model.n_states) - closed) if model.is_discrete else -closed
+    try:
+        dc_gain = (model.c - model.d @ gain) @ np.linalg.solve(resolvent, model.b) + model.d
+        if np.linalg.cond(dc_gain) > 1e12:
+            return None
+        return np.linalg.inv(dc_gain)
+    except np.linalg.LinAlgError:
+        return None
+
+
+def design_feedback(model: StateSpaceModel, poles=None, gain=None,
+                    method: str = 'auto') -> FeedbackDesign:
+    """
+    Design (or check) the state-feedback gain ``K``.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    poles : array_like of complex, shape (n,), optional
+        Poles of ``A - B K``.
+    gain : array_like, shape (m, n) or flat, optional
+        A given ``K`` (row-major when flat); it must stabilize ``A - B K``.
+    method : str
+        Placement method.
+
+    Raises
+    ------
+    DesignError
+        Uncontrollable pair, placement failure, or a given gain leaving the loop unstable.
+
+    """
+    if gain is not None:
+        gain = matrix_from_flat('feedback.gain', np.ravel(gain), model.n_inputs, model.n_states)
+        achieved = sort_poles(np.linalg.eigvals(model.a - model.b @ gain))
+        if not is_stable(achieved, model.is_discrete):
+            raise DesignError(
+                f'feedback.gain: the given K leaves A - B K unstable: poles '
+                f'{format_modes(achieved)}')
+        return FeedbackDesign(gain=gain, requested_poles=achieved, achieved_poles=achieved,
+                              method='given', residual=0.0,
+                              reference_gain=reference_gain(model, gain))
+    if poles is None:
+        raise ValueError('design_feedback needs poles or a gain')
+    poles = np.asarray(poles, dtype=complex)
+    if not is_stable(poles, model.is_discrete):
+        raise ConfigError('feedback.poles',
+                          f'requested poles {format_modes(poles)} are not stable')
+    require_controllable(model.a, model.b)
+    result = place(model.a, model.b, poles, method)
+    return FeedbackDesign(
+        gain=result.gain, requested_poles=result.requested_poles,
+        achieved_poles=result.achieved_poles, method=result.method, residual=result.residual,
+        reference_gain=reference_gain(model, result.gain))

@@ -1,0 +1,90 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""Full-order (Luenberger) observer ``x_hat' = A x_hat + B u + L (y - C x_hat - D u)``."""
+
+
+import numpy as np
+
+from observer_ros.core.analysis import require_observable
+from observer_ros.core.design.common import (
+    check_given_gain_stable, ObserverDesign, ObserverRealization, require_stable_poles)
+from observer_ros.core.model import matrix_from_flat, StateSpaceModel
+from observer_ros.core.placement import place_observer
+
+
+def full_order_realization(model: StateSpaceModel, gain: np.ndarray) -> ObserverRealization:
+    """Observer with state ``x_hat``: ``A - L C``, inputs ``L`` (y) and ``B - L D`` (u)."""
+    n_states = model.n_states
+    return ObserverRealization(
+        a=model.a - gain @ model.c, b_y=gain, b_u=model.b - gain @ model.d,
+        c=np.eye(n_states), d_y=np.zeros((n_states, model.n_outputs)),
+        d_u=np.zeros((n_states, model.n_inputs)))
+
+
+def design_full_order(model: StateSpaceModel, poles=None, gain=None,
+                      method: str = 'auto') -> ObserverDesign:
+    """
+    Design (or check) a full-order Luenberger observer.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    poles : array_like of complex, shape (n,), optional
+        Error-dynamics poles: s-plane for a continuous model, z-plane for a discrete one.
+    gain : array_like, shape (n, p) or flat (n * p,), optional
+        A given ``L`` (row-major when flat); it is checked for stability instead of designed.
+    method : str
+        Placement method (see :mod:`observer_ros.core.placement`).
+
+    Returns
+    -------
+    ObserverDesign
+        ``gain`` is ``L``, shape ``(n, p)``.
+
+    Raises
+    ------
+    DesignError
+        Unobservable pair (with the lost modes), placement failure, unstable poles or an
+        unstable given gain.
+
+    """
+    if gain is not None:
+        gain = matrix_from_flat('observer.gain', np.ravel(gain), model.n_states,
+                                model.n_outputs)
+        achieved = check_given_gain_stable(model.a - gain @ model.c, model.is_discrete,
+                                           'observer.gain')
+        return ObserverDesign(
+            kind='full_order', model=model, gain=gain, requested_poles=achieved,
+            achieved_poles=achieved, method='given', residual=0.0,
+            realization=full_order_realization(model, gain))
+    if poles is None:
+        raise ValueError('design_full_order needs poles or a gain')
+    poles = np.asarray(poles, dtype=complex)
+    require_stable_poles(poles, model.is_discrete, 'observer.poles')
+    require_observable(model.a, model.c)
+    result = place_observer(model.a, model.c, poles, method)
+    return ObserverDesign(
+        kind='full_order', model=model, gain=result.gain,
+        requested_poles=result.requested_poles, achieved_poles=result.achieved_poles,
+        method=result.method, residual=result.residual,
+        realization=full_order_realization(model, result.gain))
+
+
+def full_order_gain(model: StateSpaceModel, poles, method: str = 'auto') -> np.ndarray:
+    """Shortcut returning only ``L`` from :func:`design_full_order`."""
+    return design_full_order(model, poles=poles, method=method).gain
+
+
+__all__ = ['design_full_order', 'full_order_gain', 'full_order_realization']
