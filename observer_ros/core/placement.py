@@ -53,7 +53,11 @@ METHODS = ('auto', 'place', 'varga', 'acker', 'direct', 'canonical')
 #: Default relative accuracy every achieved pole set must meet.
 DEFAULT_RTOL = 1e-6
 
-#: Relative distance under which two requested poles are treated as one repeated pole.
+#: Relative distance under which poles are treated as one (nearly) repeated cluster, both
+#: for choosing the method and for verifying the result.
+CLUSTER_RTOL = 1e-3
+
+#: Relative distance under which two poles are the same repeated pole (Jordan chains).
 REPEATED_RTOL = 1e-6
 
 #: Above this many states the single-input closed forms are not tried by ``'auto'``.
@@ -93,29 +97,50 @@ def sort_poles(poles) -> np.ndarray:
     return poles[np.lexsort((poles.imag, poles.real))]
 
 
-def has_repeated(poles: np.ndarray, rtol: float = REPEATED_RTOL) -> bool:
-    """Whether two poles are equal to within ``rtol`` relative."""
-    return max_multiplicity(poles, rtol) > 1
+def pole_clusters(poles: np.ndarray, rtol: float = CLUSTER_RTOL) -> list:
+    """
+    Group poles closer than ``rtol`` (relative, single linkage) into clusters.
 
+    Returns
+    -------
+    list of numpy.ndarray of int
+        Indices of each cluster.
 
-def max_multiplicity(poles: np.ndarray, rtol: float = REPEATED_RTOL) -> int:
-    """Largest number of poles in one cluster of (nearly) equal values."""
+    """
     poles = np.asarray(poles, dtype=complex)
-    best = 0
-    for pole in poles:
-        count = int(np.sum(np.abs(poles - pole) <= rtol * max(1.0, abs(pole))))
-        best = max(best, count)
-    return best
+    labels = list(range(poles.size))
+    for i in range(poles.size):
+        for j in range(i + 1, poles.size):
+            scale = max(1.0, abs(poles[i]), abs(poles[j]))
+            if abs(poles[i] - poles[j]) <= rtol * scale and labels[i] != labels[j]:
+                old, new = labels[j], labels[i]
+                labels = [new if label == old else label for label in labels]
+    groups: dict = {}
+    for index, label in enumerate(labels):
+        groups.setdefault(label, []).append(index)
+    return [np.array(group) for group in groups.values()]
+
+
+def max_multiplicity(poles: np.ndarray, rtol: float = CLUSTER_RTOL) -> int:
+    """Size of the largest cluster of (nearly) equal poles."""
+    return max((group.size for group in pole_clusters(poles, rtol)), default=0)
+
+
+def has_repeated(poles: np.ndarray, rtol: float = CLUSTER_RTOL) -> bool:
+    """Whether two poles are equal, or nearly, to within ``rtol`` relative."""
+    return max_multiplicity(poles, rtol) > 1
 
 
 def placement_residual(closed_loop: np.ndarray, poles: np.ndarray) -> tuple[float, np.ndarray]:
     """
     Relative error between ``eig(closed_loop)`` and ``poles``.
 
-    Distinct poles are matched one to one and compared directly. With repeated poles,
-    whose computed eigenvalues scatter by ``eps^(1/k)`` even for an exact gain, the
-    characteristic polynomial coefficients are compared instead, with ``s`` scaled by the
-    largest pole magnitude so that every coefficient counts alike.
+    Eigenvalues are matched to the requested poles one to one. A pole standing alone is
+    compared directly. A cluster of repeated or nearly repeated poles, whose computed
+    eigenvalues scatter by ``eps^(1/k)`` even for an exact gain, is compared through the
+    coefficients of its polynomial shifted to the cluster centre, each scaled by
+    ``max(1, |centre|)^j``: the symmetric functions of a cluster are as accurate as the
+    matrix, its individual eigenvalues are not.
 
     Returns
     -------
@@ -128,15 +153,22 @@ def placement_residual(closed_loop: np.ndarray, poles: np.ndarray) -> tuple[floa
     poles = np.asarray(poles, dtype=complex)
     if not np.all(np.isfinite(achieved)):
         return float('inf'), achieved
-    if not has_repeated(poles):
-        cost = np.abs(achieved[:, None] - poles[None, :]) / np.maximum(1.0, np.abs(poles))[None]
-        rows, cols = scipy.optimize.linear_sum_assignment(cost)
-        return float(cost[rows, cols].max()), achieved
-    scale = max(1.0, float(np.abs(poles).max()))
-    powers = scale ** -np.arange(poles.size + 1)
-    wanted = np.real(np.poly(poles)) * powers
-    got = np.real(np.poly(achieved)) * powers
-    return float(np.abs(got - wanted).max() / np.abs(wanted).max()), achieved
+    cost = np.abs(achieved[:, None] - poles[None, :])
+    rows, cols = scipy.optimize.linear_sum_assignment(cost)
+    matched = np.empty_like(poles)
+    matched[cols] = achieved[rows]
+    residual = 0.0
+    for group in pole_clusters(poles):
+        wanted, got = poles[group], matched[group]
+        centre = wanted.mean()
+        scale = max(1.0, abs(centre))
+        if group.size == 1:
+            residual = max(residual, abs(got[0] - wanted[0]) / scale)
+            continue
+        powers = scale ** -np.arange(group.size + 1)
+        difference = (np.poly(got - centre) - np.poly(wanted - centre)) * powers
+        residual = max(residual, float(np.abs(difference).max()))
+    return residual, achieved
 
 
 def _acker(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:

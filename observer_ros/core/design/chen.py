@@ -31,7 +31,7 @@ from observer_ros.core.design.common import (
     ObserverDesign, ObserverRealization, require_stable_poles)
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.model import matrix_from_flat, StateSpaceModel
-from observer_ros.core.placement import has_repeated, REPEATED_RTOL, sort_poles
+from observer_ros.core.placement import placement_residual, REPEATED_RTOL, sort_poles
 from observer_ros.core.poles import clean_poles
 
 #: Largest accepted condition number of ``[C; T]``.
@@ -187,9 +187,8 @@ def design_chen(model: StateSpaceModel, poles, gain=None,
         gain = matrix_from_flat('observer.gain', np.ravel(gain), n_reduced, n_outputs)
         method = 'sylvester (given L)'
     t, inverse, condition, residual = solve_chen(model.a, model.c, f, gain)
-    achieved = sort_poles(np.linalg.eigvals(f))
-    if has_repeated(poles):
-        achieved = sort_poles(poles)  # F is built exactly from them; eig() would scatter
+    pole_residual, achieved = placement_residual(f, poles)
+    residual = max(residual, pole_residual)
     realization = ObserverRealization(
         a=f, b_y=gain, b_u=t @ model.b - gain @ model.d, c=inverse[:, n_outputs:],
         d_y=inverse[:, :n_outputs], d_u=-inverse[:, :n_outputs] @ model.d)

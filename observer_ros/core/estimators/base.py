@@ -1,0 +1,296 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The runtime estimator loop shared by every observer type.
+
+Each observer type is a *step design*: for a sample interval it returns one matrix ``G``
+with ``[x_hat_new; innovation] = G [x_hat_prev; u; y]``, where ``u`` is the input held over
+the interval and ``y`` the measurement at its end. :class:`Estimator` owns the state,
+the stamps and a cache of those matrices keyed by the interval in integer nanoseconds, so
+a steady rate costs one matrix-vector product per update and jittered stamps stay exact.
+"""
+
+from collections import OrderedDict
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from observer_ros.core.discretize import zero_order_hold
+from observer_ros.core.errors import ConfigError, StampError
+from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.poles import to_discrete
+
+#: Number of distinct sample intervals whose step matrices are kept.
+DEFAULT_CACHE_SIZE = 256
+
+NANOSECONDS = 1_000_000_000
+
+
+@dataclass(frozen=True)
+class StepMatrices:
+    """
+    One sample interval of an estimator.
+
+    Attributes
+    ----------
+    g : numpy.ndarray, shape (n + p, n + m + p)
+        ``[x_hat_new; innovation] = g @ [x_hat_prev; u; y]``; the innovation is
+        ``y - C x_hat_prior`` with the prediction ``x_hat_prior = Ad x_hat_prev + Bd u``.
+    error : numpy.ndarray, shape (n, n)
+        Designed error dynamics ``e_new = error @ e_prev`` (``e = x - x_hat``).
+    poles : numpy.ndarray of complex
+        Designed discrete poles of the interval.
+    covariance : numpy.ndarray or None, shape (n, n)
+        Kalman only: covariance of ``x_hat`` after the update.
+
+    """
+
+    g: np.ndarray
+    error: np.ndarray
+    poles: np.ndarray
+    covariance: Optional[np.ndarray] = None
+
+
+def assemble_step(error: np.ndarray, input_gain: np.ndarray, output_gain: np.ndarray,
+                  c: np.ndarray, ad: np.ndarray, bd: np.ndarray, poles: np.ndarray,
+                  covariance: Optional[np.ndarray] = None) -> StepMatrices:
+    """Stack ``x_hat_new = error x + input_gain u + output_gain y`` with the innovation rows."""
+    n_outputs = c.shape[0]
+    top = np.hstack([error, input_gain, output_gain])
+    bottom = np.hstack([-c @ ad, -c @ bd, np.eye(n_outputs)])
+    return StepMatrices(g=np.ascontiguousarray(np.vstack([top, bottom])), error=error,
+                        poles=poles, covariance=covariance)
+
+
+class StepDesign:
+    """
+    Base of the per-type step designs: turns a sample interval into :class:`StepMatrices`.
+
+    Subclasses implement :meth:`design_step` for ``(Ad, Bd, discrete poles)``; this base
+    discretizes continuous models exactly (zero-order hold) and maps the continuous poles
+    to ``exp(lambda dt)``.
+    """
+
+    kind = 'base'
+
+    def __init__(self, model: StateSpaceModel) -> None:
+        if np.any(model.d != 0.0):
+            raise ConfigError(
+                'model.D', 'the runtime estimators need D = 0 (a sampled loop has no direct '
+                'feedthrough); D is used by the design tools only')
+        self.model = model
+
+    def step(self, dt_ns: int) -> StepMatrices:
+        """Step matrices for an interval of ``dt_ns`` nanoseconds (ignored if discrete)."""
+        model = self.model
+        if model.is_discrete:
+            return self.design_step(model.a, model.b, 0.0)
+        dt = dt_ns / NANOSECONDS
+        ad, bd = zero_order_hold(model.a, model.b, dt)
+        return self.design_step(ad, bd, dt)
+
+    def design_step(self, ad: np.ndarray, bd: np.ndarray, dt: float) -> StepMatrices:
+        """
+        Step matrices for the sampled plant ``(Ad, Bd)``.
+
+        ``dt`` is the interval in seconds for a sampled continuous model, 0 for a discrete
+        model (whose poles are already z-plane).
+        """
+        raise NotImplementedError
+
+    def discrete_poles(self, continuous_or_discrete: np.ndarray, dt: float) -> np.ndarray:
+        """``exp(lambda dt)`` for a sampled continuous model, the poles as given otherwise."""
+        if self.model.is_discrete:
+            return continuous_or_discrete
+        return to_discrete(continuous_or_discrete, dt)
+
+    def initial_estimate(self, initial_state: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Estimate at the first sample; reduced observers make it agree with ``y``."""
+        return initial_state.copy()
+
+
+def least_norm_consistent(c: np.ndarray, initial_state: np.ndarray, y: np.ndarray):
+    """``x0 + C^+ (y - C x0)``: the point nearest ``x0`` whose output is ``y``."""
+    correction = np.linalg.lstsq(c, y - c @ initial_state, rcond=None)[0]
+    return initial_state + correction
+
+
+class Estimator:
+    """
+    Discrete-time state estimator driven by stamped samples.
+
+    Parameters
+    ----------
+    design : StepDesign
+        Produces the step matrices of each interval.
+    initial_state : array_like, shape (n,), optional
+        Estimate before the first sample (zero by default).
+    cache_size : int
+        Distinct intervals kept (least recently used dropped).
+
+    Notes
+    -----
+    :meth:`update` takes the measurement ``y`` at ``stamp_ns`` and the input ``u`` held over
+    the interval since the previous sample. The first update only initializes the estimate.
+
+    """
+
+    def __init__(self, design: StepDesign, initial_state=None,
+                 cache_size: int = DEFAULT_CACHE_SIZE) -> None:
+        self.design = design
+        model = design.model
+        self.n_states, self.n_inputs = model.n_states, model.n_inputs
+        self.n_outputs = model.n_outputs
+        self.initial_state = self._vector('observer.initial_state', initial_state,
+                                          self.n_states, default_zero=True)
+        self._cache: OrderedDict = OrderedDict()
+        self._cache_size = cache_size
+        self._stamp: Optional[int] = None
+        self._x = self.initial_state.copy()
+        self._innovation = np.zeros(self.n_outputs)
+        self._step: Optional[StepMatrices] = None
+        self._buffer = np.zeros(self.n_states + self.n_inputs + self.n_outputs)
+
+    @staticmethod
+    def _vector(name: str, values, size: int, default_zero: bool = False) -> np.ndarray:
+        if values is None and default_zero:
+            return np.zeros(size)
+        vector = np.asarray(values, dtype=float).reshape(-1)
+        if vector.size != size:
+            raise ValueError(f'{name}: expected {size} values, got {vector.size}')
+        if not np.all(np.isfinite(vector)):
+            raise ValueError(f'{name}: expected finite values, got {vector.tolist()}')
+        return vector
+
+    @property
+    def estimate(self) -> np.ndarray:
+        """Current estimate ``x_hat`` (a copy)."""
+        return self._x.copy()
+
+    @property
+    def innovation(self) -> np.ndarray:
+        """Last innovation ``y - C x_hat_prior`` (zero before the second sample)."""
+        return self._innovation.copy()
+
+    @property
+    def stamp_ns(self) -> Optional[int]:
+        """Stamp of the last accepted sample, None before the first one."""
+        return self._stamp
+
+    @property
+    def covariance(self) -> Optional[np.ndarray]:
+        """Kalman filters: covariance of the estimate after the last update."""
+        return None if self._step is None else self._step.covariance
+
+    @property
+    def last_step(self) -> Optional[StepMatrices]:
+        """Step matrices used by the last update."""
+        return self._step
+
+    def step_matrices(self, dt_ns: int) -> StepMatrices:
+        """Cached :meth:`StepDesign.step` for an interval in nanoseconds."""
+        step = self._cache.get(dt_ns)
+        if step is None:
+            step = self.design.step(dt_ns)
+            self._cache[dt_ns] = step
+            if len(self._cache) > self._cache_size:
+                self._cache.popitem(last=False)
+        else:
+            self._cache.move_to_end(dt_ns)
+        return step
+
+    def update(self, stamp_ns: int, y, u) -> np.ndarray:
+        """
+        Take the measurement ``y`` stamped ``stamp_ns`` and the input held since the last one.
+
+        Parameters
+        ----------
+        stamp_ns : int
+            Measurement time in nanoseconds; must increase from update to update.
+        y : array_like, shape (p,)
+        u : array_like, shape (m,)
+
+        Returns
+        -------
+        numpy.ndarray, shape (n,)
+            The new estimate (the estimator's own array: copy it to keep it).
+
+        Raises
+        ------
+        StampError
+            If ``stamp_ns`` is not after the previous sample's.
+        ValueError
+            If ``y`` or ``u`` has the wrong length or a non-finite entry.
+
+        """
+        y = self._vector('y', y, self.n_outputs)
+        u = self._vector('u', u, self.n_inputs)
+        stamp_ns = int(stamp_ns)
+        if self._stamp is None:
+            self._x = self.design.initial_estimate(self.initial_state, y)
+            self._innovation = np.zeros(self.n_outputs)
+            self._stamp = stamp_ns
+            return self._x
+        dt_ns = stamp_ns - self._stamp
+        if dt_ns <= 0:
+            raise StampError(
+                f'stamp {stamp_ns} ns is not after the previous sample ({self._stamp} ns)')
+        step = self.step_matrices(dt_ns)
+        buffer = self._buffer
+        n, m = self.n_states, self.n_inputs
+        buffer[:n] = self._x
+        buffer[n:n + m] = u
+        buffer[n + m:] = y
+        result = step.g @ buffer
+        self._x = result[:n]
+        self._innovation = result[n:]
+        self._stamp = stamp_ns
+        self._step = step
+        return self._x
+
+    def reset(self, initial_state=None) -> None:
+        """Forget the stamps and start again from ``initial_state`` (or the configured one)."""
+        if initial_state is not None:
+            self.initial_state = self._vector('observer.initial_state', initial_state,
+                                              self.n_states)
+        self._x = self.initial_state.copy()
+        self._innovation = np.zeros(self.n_outputs)
+        self._stamp = None
+        self._step = None
+
+    def replace_design(self, design: StepDesign) -> None:
+        """Switch to new gains keeping the estimate and stamps (no jump in ``x_hat``)."""
+        if (design.model.n_states, design.model.n_inputs, design.model.n_outputs) != (
+                self.n_states, self.n_inputs, self.n_outputs):
+            raise ValueError('replace_design: the new design has other dimensions')
+        self.design = design
+        self._cache.clear()
+
+    def run(self, stamps_ns, outputs, inputs) -> np.ndarray:
+        """
+        Run over recorded arrays; row ``k`` of ``inputs`` is held from sample ``k-1`` to ``k``.
+
+        Returns
+        -------
+        numpy.ndarray, shape (samples, n)
+
+        """
+        outputs = np.asarray(outputs, dtype=float)
+        inputs = np.asarray(inputs, dtype=float)
+        estimates = np.empty((len(stamps_ns), self.n_states))
+        for index, stamp in enumerate(stamps_ns):
+            estimates[index] = self.update(int(stamp), outputs[index], inputs[index])
+        return estimates

@@ -1,0 +1,78 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Sampled full-order observer in current-estimator form.
+
+Per interval: ``x_prior = Ad x_hat + Bd u`` and ``x_hat = x_prior + M (y - C x_prior)``, so
+the error obeys ``e_new = (I - M C) Ad e``; ``M`` places ``eig((I - M C) Ad)`` at
+``exp(lambda dt)`` (the pair ``(Ad, C Ad)``).
+"""
+
+import numpy as np
+
+from observer_ros.core.design.common import ObserverDesign
+from observer_ros.core.errors import ConfigError
+from observer_ros.core.estimators.base import assemble_step, StepDesign, StepMatrices
+from observer_ros.core.placement import place_observer
+
+
+def current_form(ad: np.ndarray, bd: np.ndarray, c: np.ndarray, filter_gain: np.ndarray,
+                 poles: np.ndarray, covariance=None) -> StepMatrices:
+    """Step matrices of ``x_hat = (I - M C)(Ad x_hat + Bd u) + M y``."""
+    correction = np.eye(ad.shape[0]) - filter_gain @ c
+    return assemble_step(correction @ ad, correction @ bd, filter_gain, c, ad, bd, poles,
+                         covariance)
+
+
+class FullOrderStep(StepDesign):
+    """
+    Step design of the full-order observer.
+
+    Parameters
+    ----------
+    design : ObserverDesign
+        From :func:`observer_ros.core.design.full_order.design_full_order`. Its requested
+        poles (those of ``A - L C`` for a given gain; s-plane for a continuous model) are
+        placed as ``exp(lambda dt)`` for every interval; for a discrete model with a given
+        gain ``L`` the filter gain is ``A^-1 L``.
+    method : str
+        Placement method for the per-interval designs.
+
+    """
+
+    kind = 'full_order'
+
+    def __init__(self, design: ObserverDesign, method: str = 'auto') -> None:
+        super().__init__(design.model)
+        self.poles = design.requested_poles
+        self.method = method
+        self.filter_gain = None
+        if self.model.is_discrete and design.method == 'given':
+            try:
+                self.filter_gain = np.linalg.solve(self.model.a, design.gain)
+            except np.linalg.LinAlgError as e:
+                raise ConfigError(
+                    'observer.gain', 'a discrete model with a singular A cannot run a given '
+                    'predictor gain in current-estimator form; give observer.poles') from e
+
+    def design_step(self, ad, bd, dt) -> StepMatrices:
+        """Place ``eig((I - M C) Ad)`` at the discrete poles and assemble the step."""
+        c = self.model.c
+        poles = self.discrete_poles(self.poles, dt)
+        if self.filter_gain is not None:
+            gain = self.filter_gain
+        else:
+            gain = place_observer(ad, c @ ad, poles, self.method).gain
+        return current_form(ad, bd, c, gain, poles)
