@@ -26,7 +26,7 @@ ArrayLike = Sequence[float] | np.ndarray
 
 
 def _as_finite_vector(parameter: str, values: ArrayLike) -> np.ndarray:
-    """Return ``values`` as a 1-D float array, refusing booleans, strings and non-finite entries."""
+    """Return ``values`` as a 1-D float array; refuse strings and non-finite entries."""
     if isinstance(values, (str, bytes)):
         raise ConfigError(parameter, f'expected a list of numbers, got the string {values!r}')
     try:
@@ -118,7 +118,8 @@ def covariance_from_flat(parameter: str, values: ArrayLike, size: int) -> np.nda
     if eigenvalues.min() < -1e-12 * max(1.0, abs(eigenvalues).max()):
         raise ConfigError(
             parameter,
-            f'expected a positive semi-definite matrix, smallest eigenvalue {eigenvalues.min():.3g}')
+            f'expected a positive semi-definite matrix, smallest eigenvalue '
+            f'{eigenvalues.min():.3g}')
     return matrix
 
 
@@ -235,7 +236,7 @@ class StateSpaceModel:
     def from_matrices(
         cls, a, b, c, d=None, dt: float = 0.0, **names
     ) -> 'StateSpaceModel':
-        """Build a model from 2-D arrays (shapes ``(n, n)``, ``(n, m)``, ``(p, n)``, ``(p, m)``)."""
+        """Build a model from 2-D arrays ``(n, n)``, ``(n, m)``, ``(p, n)``, ``(p, m)``."""
         a = np.atleast_2d(np.asarray(a, dtype=float))
         b = np.asarray(b, dtype=float)
         c = np.atleast_2d(np.asarray(c, dtype=float))

@@ -34,8 +34,10 @@ def _square_root(covariance: np.ndarray) -> np.ndarray:
 
 def input_limits_from_flat(values, n_inputs: int) -> Optional[np.ndarray]:
     """
-    Parse ``plant.input_limits``: empty (none), ``[min, max]`` for all inputs, or
-    ``[min_1, max_1, ..., min_m, max_m]``. Returns shape ``(m, 2)`` or None.
+    Parse input limits into an ``(m, 2)`` array, or None.
+
+    Accepts empty (no limits), ``[min, max]`` for all inputs, or
+    ``[min_1, max_1, ..., min_m, max_m]``.
     """
     if values is None or len(values) == 0:
         return None

@@ -94,7 +94,7 @@ def real_block_matrix(poles) -> np.ndarray:
 
 
 def default_chen_gain(f: np.ndarray, n_outputs: int, seed: int = DEFAULT_SEED) -> np.ndarray:
-    """A reproducible random ``L`` ``(n-p, p)`` with ``(F, L)`` controllable."""
+    """Draw a reproducible random ``L`` ``(n-p, p)`` with ``(F, L)`` controllable."""
     rng = np.random.default_rng(seed)
     for _ in range(20):
         gain = rng.uniform(0.1, 1.0, size=(f.shape[0], n_outputs))

@@ -13,8 +13,10 @@
 # limitations under the License.
 
 """
-The observer-controller as one system: ``G_oc = -U / Y``, the Diophantine cross-check and
-the closed loop of the separation principle.
+The observer-controller as one system.
+
+``G_oc = -U / Y``, the Diophantine cross-check and the closed loop of the separation
+principle.
 """
 
 from dataclasses import dataclass
@@ -105,7 +107,7 @@ def polynomial_text(coefficients, variable: str = 's') -> str:
 
 def controller_state_space(realization: ObserverRealization, feedback_gain: np.ndarray):
     """
-    The observer closed by ``u = -K x_hat`` as a system from ``y`` to ``u``.
+    Close the observer with ``u = -K x_hat``: a system from ``y`` to ``u``.
 
     Returns ``(A_c, B_c, C_c, D_c)`` with ``xi' = A_c xi + B_c y`` and
     ``u = C_c xi + D_c y``; ``G_oc = -(C_c (sI - A_c)^-1 B_c + D_c)``.
@@ -141,7 +143,7 @@ def _transfer_function(num, den, discrete) -> ControllerTransferFunction:
 def controller_transfer_function(model: StateSpaceModel, realization: ObserverRealization,
                                  feedback_gain: np.ndarray) -> ControllerTransferFunction:
     """
-    Observer-controller transfer function ``G_oc = -U / Y`` (single input, single output).
+    Compute the observer-controller transfer function ``G_oc = -U / Y`` (SISO).
 
     Works for every observer type through its :class:`ObserverRealization`. Warns with
     :class:`UnstableControllerWarning` when the controller itself is unstable (legal, as in

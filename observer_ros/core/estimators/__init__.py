@@ -26,7 +26,7 @@ from observer_ros.core.estimators.reduced_order import ReducedOrderStep
 
 
 def step_design_for(design: ObserverDesign, method: str = 'auto') -> StepDesign:
-    """The runtime step design matching an observer design of any type."""
+    """Return the runtime step design matching an observer design of any type."""
     if isinstance(design, KalmanDesign):
         return KalmanStep(design)
     if isinstance(design, ChenDesign):

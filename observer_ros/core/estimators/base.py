@@ -201,7 +201,7 @@ class Estimator:
         return self._step
 
     def step_matrices(self, dt_ns: int) -> StepMatrices:
-        """Cached :meth:`StepDesign.step` for an interval in nanoseconds."""
+        """Return the (cached) step matrices for an interval in nanoseconds."""
         step = self._cache.get(dt_ns)
         if step is None:
             step = self.design.step(dt_ns)

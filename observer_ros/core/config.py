@@ -1,0 +1,535 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The one parameter schema of observer_ros and the one function that validates it.
+
+Nodes declare their ROS parameters from :data:`PARAMETERS`; the design CLI and the bag
+tools read the same YAML file (``/**: ros__parameters:``). :func:`validate_parameters`
+turns a flat ``{'model.A': [...], ...}`` mapping into a checked :class:`System` holding the
+model and every design, or raises :class:`ConfigError` naming the parameter. It has no side
+effects, so nodes call it to vet run-time parameter changes before applying them.
+"""
+
+from dataclasses import dataclass, field
+import math
+from typing import Any, Mapping, Optional
+import warnings
+
+import numpy as np
+import yaml
+
+from observer_ros.core.analysis import format_modes
+from observer_ros.core.design.chen import design_chen
+from observer_ros.core.design.common import ObserverDesign
+from observer_ros.core.design.controller import (
+    closed_loop_poles, controller_transfer_function, ControllerTransferFunction)
+from observer_ros.core.design.feedback import design_feedback, FeedbackDesign
+from observer_ros.core.design.full_order import design_full_order
+from observer_ros.core.design.kalman import design_kalman
+from observer_ros.core.design.reduced_order import COORDINATES, design_reduced_order
+from observer_ros.core.errors import ConfigError, DesignError
+from observer_ros.core.estimators import Estimator, make_estimator
+from observer_ros.core.model import (
+    covariance_from_flat, matrix_from_flat, StateSpaceModel, vector_from_flat)
+from observer_ros.core.placement import METHODS
+from observer_ros.core.poles import parse_poles, poles_meeting_error_spec, slowest_allowed_pole
+from observer_ros.core.simulation import input_limits_from_flat
+
+OBSERVER_TYPES = ('full_order', 'reduced_order', 'chen', 'kalman')
+
+DOUBLE, DOUBLE_ARRAY, STRING, STRING_ARRAY, INTEGER, BOOL = (
+    'double', 'double_array', 'string', 'string_array', 'integer', 'bool')
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    """One parameter: name, type, default, description and whether it may change at run time."""
+
+    name: str
+    kind: str
+    default: Any
+    description: str
+    dynamic: bool = False
+
+
+def _matrix(text: str) -> str:
+    return f'{text}, flat row-major (row after row).'
+
+
+PARAMETERS = (
+    ParameterSpec('model.A', DOUBLE_ARRAY, [], _matrix('State matrix A, n x n (n*n values)')),
+    ParameterSpec('model.B', DOUBLE_ARRAY, [], _matrix('Input matrix B, n x m')),
+    ParameterSpec('model.C', DOUBLE_ARRAY, [], _matrix('Output matrix C, p x n')),
+    ParameterSpec('model.D', DOUBLE_ARRAY, [],
+                  _matrix('Feedthrough D, p x m; empty means zero')),
+    ParameterSpec('model.dt', DOUBLE, 0.0,
+                  'Model period in seconds: 0 for continuous time, > 0 for discrete time.'),
+    ParameterSpec('model.state_names', STRING_ARRAY, [], 'n state names (default x1..xn).'),
+    ParameterSpec('model.input_names', STRING_ARRAY, [], 'm input names (default u1..um).'),
+    ParameterSpec('model.output_names', STRING_ARRAY, [], 'p output names (default y1..yp).'),
+    ParameterSpec('observer.type', STRING, 'full_order',
+                  'full_order | reduced_order | chen | kalman.'),
+    ParameterSpec('observer.poles', STRING_ARRAY, [],
+                  'Observer error poles as strings ("-10", "-2+2j", "zeta=0.8, wn=10"); '
+                  's-plane for a continuous model, z-plane for a discrete one. n poles '
+                  '(full order) or n - p (reduced order, Chen).', dynamic=True),
+    ParameterSpec('observer.gain', DOUBLE_ARRAY, [],
+                  _matrix('Given observer gain L instead of poles: n x p (full order) or '
+                          '(n-p) x p (reduced order, Chen)'), dynamic=True),
+    ParameterSpec('observer.process_noise', DOUBLE_ARRAY, [],
+                  'Kalman Q: n diagonal values or n x n row-major. Continuous model: '
+                  'intensity (discretized per interval); discrete model: covariance.',
+                  dynamic=True),
+    ParameterSpec('observer.measurement_noise', DOUBLE_ARRAY, [],
+                  'Kalman R: p diagonal values or p x p row-major; covariance of each '
+                  'sampled measurement (continuous model: intensity for the CARE design).',
+                  dynamic=True),
+    ParameterSpec('observer.method', STRING, 'auto',
+                  'Pole placement method: ' + ' | '.join(METHODS) + '.', dynamic=True),
+    ParameterSpec('observer.coordinates', STRING, 'orthonormal',
+                  'Reduced order: orthonormal (C completed by an orthonormal null-space '
+                  'basis) | observability (the observability matrix, one output).'),
+    ParameterSpec('observer.chen_seed', INTEGER, 0,
+                  'Chen: seed of the random L when observer.gain is empty.', dynamic=True),
+    ParameterSpec('observer.error_tolerance', DOUBLE, 0.0,
+                  'With observer.error_time: require ||e(T)|| <= tolerance for ||e(0)|| = 1 '
+                  '(slowest pole ln(tolerance)/T); 0 disables. Without poles, poles are '
+                  'generated at that bound.', dynamic=True),
+    ParameterSpec('observer.error_time', DOUBLE, 0.0,
+                  'Time T in seconds of the error specification.', dynamic=True),
+    ParameterSpec('observer.initial_state', DOUBLE_ARRAY, [],
+                  'Initial estimate, n values (default zeros).', dynamic=True),
+    ParameterSpec('feedback.gain', DOUBLE_ARRAY, [],
+                  _matrix('Given state-feedback gain K, m x n (u = -K x_hat + N r)'),
+                  dynamic=True),
+    ParameterSpec('feedback.poles', STRING_ARRAY, [],
+                  'Poles of A - B K as strings, n of them.', dynamic=True),
+    ParameterSpec('feedback.method', STRING, 'auto', 'Pole placement method for K.',
+                  dynamic=True),
+    ParameterSpec('feedback.reference_gain', DOUBLE_ARRAY, [],
+                  _matrix('Reference gain N, m x p; empty: unit DC gain when the plant is '
+                          'square'), dynamic=True),
+    ParameterSpec('feedback.input_limits', DOUBLE_ARRAY, [],
+                  'Command saturation: [min, max] or [min_1, max_1, ..., min_m, max_m].',
+                  dynamic=True),
+    ParameterSpec('feedback.timeout', DOUBLE, 0.5,
+                  'Seconds without x_hat after which the safe command is published.',
+                  dynamic=True),
+    ParameterSpec('feedback.safe_command', DOUBLE_ARRAY, [],
+                  'Command published when x_hat is stale, m values (default zeros).',
+                  dynamic=True),
+    ParameterSpec('plant.rate_hz', DOUBLE, 100.0, 'Plant sample rate in Hz.'),
+    ParameterSpec('plant.initial_state', DOUBLE_ARRAY, [], 'True initial state, n values.'),
+    ParameterSpec('plant.process_noise', DOUBLE_ARRAY, [],
+                  'Plant process noise: intensity (continuous) or covariance (discrete), '
+                  'n or n*n values; empty for none.'),
+    ParameterSpec('plant.measurement_noise', DOUBLE_ARRAY, [],
+                  'Measurement noise covariance, p or p*p values; empty for none.'),
+    ParameterSpec('plant.seed', INTEGER, 0, 'Seed of the plant noise.'),
+    ParameterSpec('plant.input_limits', DOUBLE_ARRAY, [],
+                  'Input saturation: [min, max] or [min_1, max_1, ..., min_m, max_m].'),
+)
+
+PARAMETER_SPECS = {spec.name: spec for spec in PARAMETERS}
+
+#: Parameters every ROS node has, allowed in shared parameter files.
+ROS_PARAMETERS = ('use_sim_time', 'start_type_description_service')
+
+
+@dataclass(frozen=True)
+class PlantSettings:
+    """Validated ``plant.*`` parameters."""
+
+    rate_hz: float
+    initial_state: np.ndarray
+    process_noise: list
+    measurement_noise: list
+    seed: int
+    input_limits: Optional[np.ndarray]
+
+    @property
+    def period_ns(self) -> int:
+        """Sample period in integer nanoseconds."""
+        return int(round(1e9 / self.rate_hz))
+
+
+@dataclass(frozen=True)
+class FeedbackSettings:
+    """Validated ``feedback.*`` parameters and the feedback design."""
+
+    design: FeedbackDesign
+    reference_gain: Optional[np.ndarray]
+    input_limits: Optional[np.ndarray]
+    timeout: float
+    safe_command: np.ndarray
+
+
+@dataclass(frozen=True)
+class System:
+    """
+    Everything a validated parameter set defines.
+
+    Attributes
+    ----------
+    parameters : dict
+        The complete flat parameter mapping (defaults filled in).
+    model : StateSpaceModel
+    observer : ObserverDesign or None
+        None when the parameters define no observer (no poles, gain or noise).
+    observer_type : str
+    initial_estimate : numpy.ndarray
+    feedback : FeedbackSettings or None
+    plant : PlantSettings
+    controller_tf : ControllerTransferFunction or None
+        SISO plants with both an observer and a feedback gain.
+    closed_loop_poles : numpy.ndarray or None
+    notes : tuple of str
+        Warnings worth showing (an unstable controller, for instance).
+
+    """
+
+    parameters: dict
+    model: StateSpaceModel
+    observer: Optional[ObserverDesign]
+    observer_type: str
+    initial_estimate: np.ndarray
+    feedback: Optional[FeedbackSettings]
+    plant: PlantSettings
+    controller_tf: Optional[ControllerTransferFunction] = None
+    closed_loop_poles: Optional[np.ndarray] = None
+    notes: tuple = field(default_factory=tuple)
+
+    def make_estimator(self) -> Estimator:
+        """Build the runtime estimator of the observer design."""
+        if self.observer is None:
+            raise ConfigError('observer.poles', 'no observer is configured: give '
+                              'observer.poles, observer.gain or the Kalman noises')
+        return make_estimator(self.observer, self.initial_estimate,
+                              self.parameters['observer.method'])
+
+
+def flatten_parameters(tree: Mapping, prefix: str = '') -> dict:
+    """Flatten nested YAML mappings into dotted names: ``{'model': {'A': x}}`` -> ``model.A``."""
+    flat = {}
+    for key, value in tree.items():
+        name = f'{prefix}{key}'
+        if isinstance(value, Mapping):
+            flat.update(flatten_parameters(value, name + '.'))
+        else:
+            flat[name] = value
+    return flat
+
+
+def load_parameter_file(path: str, node_name: Optional[str] = None) -> dict:
+    """
+    Read a ROS 2 parameter YAML file into a flat mapping.
+
+    Parameters under ``/**`` apply to every node; a section named after ``node_name``
+    (with or without a leading slash) is merged on top.
+
+    Raises
+    ------
+    ConfigError
+        Unreadable file, invalid YAML or no ``ros__parameters`` section.
+
+    """
+    try:
+        with open(path, encoding='utf-8') as stream:
+            document = yaml.safe_load(stream)
+    except OSError as e:
+        raise ConfigError('', f'cannot read parameter file {path}: {e.strerror}') from e
+    except yaml.YAMLError as e:
+        raise ConfigError('', f'{path} is not valid YAML: {e}') from e
+    if not isinstance(document, Mapping):
+        raise ConfigError('', f'{path}: expected a mapping with /**: ros__parameters:')
+    flat: dict = {}
+    sections = ['/**', '**']
+    if node_name:
+        sections += [node_name, '/' + node_name.lstrip('/')]
+    found = False
+    for section in sections:
+        body = document.get(section)
+        if isinstance(body, Mapping) and isinstance(body.get('ros__parameters'), Mapping):
+            flat.update(flatten_parameters(body['ros__parameters']))
+            found = True
+    if not found:
+        raise ConfigError('', f'{path}: no "/**: ros__parameters:" section found')
+    return flat
+
+
+def _coerce(spec: ParameterSpec, value: Any) -> Any:
+    """Check and convert one value to its declared type; integers are accepted as doubles."""
+    name, kind = spec.name, spec.kind
+    if value is None:
+        return spec.default
+    if kind == DOUBLE:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(name, f'expected a number, got {value!r}')
+        value = float(value)
+        if not math.isfinite(value):
+            raise ConfigError(name, f'expected a finite number, got {value}')
+        return value
+    if kind == INTEGER:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(name, f'expected an integer, got {value!r}')
+        return int(value)
+    if kind == BOOL:
+        if not isinstance(value, bool):
+            raise ConfigError(name, f'expected true or false, got {value!r}')
+        return value
+    if kind == STRING:
+        if not isinstance(value, str):
+            raise ConfigError(name, f'expected a string, got {value!r}')
+        return value
+    if isinstance(value, (str, bytes)) or not hasattr(value, '__iter__'):
+        raise ConfigError(name, f'expected a list, got {value!r}')
+    items = list(value)
+    if kind == DOUBLE_ARRAY:
+        for index, item in enumerate(items):
+            if isinstance(item, bool) or not isinstance(item, (int, float, np.floating,
+                                                               np.integer)):
+                raise ConfigError(name, f'expected numbers, entry {index} is {item!r}')
+        return [float(item) for item in items]
+    return [item if isinstance(item, str) else str(item) for item in items]
+
+
+def complete_parameters(params: Mapping[str, Any], strict: bool = False) -> dict:
+    """
+    Fill defaults and coerce every known parameter to its type.
+
+    Unknown names are kept untouched unless ``strict`` is set, in which case any name
+    outside the schema (other than ROS's own ``use_sim_time`` and ``qos_overrides.*``) is
+    an error, so that a typo is not silently ignored.
+    """
+    complete = {}
+    for spec in PARAMETERS:
+        complete[spec.name] = _coerce(spec, params.get(spec.name, spec.default))
+    for name, value in params.items():
+        if name in PARAMETER_SPECS:
+            continue
+        if strict and not (name in ROS_PARAMETERS or name.startswith('qos_overrides.')):
+            raise ConfigError(name, 'unknown parameter; see the parameter schema in README')
+        complete[name] = value
+    return complete
+
+
+def _named(parameter: str, error: Exception) -> ConfigError:
+    text = str(error)
+    if isinstance(error, ConfigError) and error.parameter:
+        return error
+    if text.startswith(('model.', 'observer.', 'feedback.', 'plant.')):
+        return ConfigError('', text)
+    return ConfigError(parameter, text)
+
+
+def _observer_poles(params: dict, model: StateSpaceModel, count: int) -> Optional[np.ndarray]:
+    poles = (parse_poles(params['observer.poles'], 'observer.poles')
+             if params['observer.poles'] else None)
+    tolerance, time = params['observer.error_tolerance'], params['observer.error_time']
+    if tolerance == 0.0 and time == 0.0:
+        return poles
+    try:
+        bound = slowest_allowed_pole(tolerance, time)
+    except ConfigError as e:
+        raise ConfigError('observer.error_tolerance',
+                          f'{e} (observer.error_tolerance={tolerance}, '
+                          f'observer.error_time={time})') from e
+    if poles is None:
+        generated = poles_meeting_error_spec(tolerance, time, count)
+        return np.exp(generated * model.dt) if model.is_discrete else generated
+    if model.is_discrete:
+        slow = poles[np.abs(poles) > math.exp(bound * model.dt) * (1 + 1e-12)]
+    else:
+        slow = poles[poles.real > bound * (1 - 1e-12)]
+    if slow.size:
+        raise ConfigError(
+            'observer.poles',
+            f'poles {format_modes(slow)} are slower than the error specification allows '
+            f'(||e({time})|| <= {tolerance} needs real parts <= {bound:.6g})')
+    return poles
+
+
+def _design_observer(params: dict, model: StateSpaceModel) -> Optional[ObserverDesign]:
+    kind = params['observer.type']
+    if kind not in OBSERVER_TYPES:
+        raise ConfigError('observer.type',
+                          f'expected one of {", ".join(OBSERVER_TYPES)}, got {kind!r}')
+    method = params['observer.method']
+    if method not in METHODS:
+        raise ConfigError('observer.method', f'expected one of {", ".join(METHODS)}, '
+                          f'got {method!r}')
+    coordinates = params['observer.coordinates']
+    if coordinates not in COORDINATES:
+        raise ConfigError('observer.coordinates',
+                          f'expected one of {", ".join(COORDINATES)}, got {coordinates!r}')
+    gain = params['observer.gain'] or None
+    if kind == 'kalman':
+        q, r = params['observer.process_noise'], params['observer.measurement_noise']
+        if gain is not None or params['observer.poles']:
+            raise ConfigError('observer.gain', 'a Kalman filter takes its gain from '
+                              'observer.process_noise and observer.measurement_noise; leave '
+                              'observer.gain and observer.poles empty')
+        if not q and not r:
+            return None
+        if not q or not r:
+            missing = 'observer.process_noise' if not q else 'observer.measurement_noise'
+            raise ConfigError(missing, 'a Kalman filter needs both noise covariances')
+        return design_kalman(model, q, r)
+    count = model.n_states if kind == 'full_order' else model.n_states - model.n_outputs
+    poles = _observer_poles(params, model, count)
+    if gain is not None and poles is not None and params['observer.poles']:
+        raise ConfigError('observer.gain', 'give either observer.gain or observer.poles, '
+                          'not both')
+    if kind == 'chen':
+        if poles is None:
+            if gain is not None:
+                raise ConfigError('observer.poles', f'a Chen observer needs its {count} poles '
+                                  '(the eigenvalues of F) besides the gain L')
+            return None
+        return design_chen(model, poles, gain, params['observer.chen_seed'])
+    if gain is None and poles is None:
+        return None
+    if poles is not None and poles.size != count:
+        raise ConfigError('observer.poles', f'expected {count} poles for a {kind} observer '
+                          f'of this model, got {poles.size}')
+    if kind == 'full_order':
+        return design_full_order(model, None if gain is not None else poles, gain, method)
+    return design_reduced_order(model, None if gain is not None else poles, gain, coordinates,
+                                method)
+
+
+def _feedback(params: dict, model: StateSpaceModel) -> Optional[FeedbackSettings]:
+    gain, pole_text = params['feedback.gain'] or None, params['feedback.poles']
+    if gain is None and not pole_text:
+        return None
+    if gain is not None and pole_text:
+        raise ConfigError('feedback.gain', 'give either feedback.gain or feedback.poles, '
+                          'not both')
+    method = params['feedback.method']
+    if method not in METHODS:
+        raise ConfigError('feedback.method', f'expected one of {", ".join(METHODS)}, '
+                          f'got {method!r}')
+    poles = parse_poles(pole_text, 'feedback.poles') if pole_text else None
+    if poles is not None and poles.size != model.n_states:
+        raise ConfigError('feedback.poles',
+                          f'expected {model.n_states} poles, got {poles.size}')
+    try:
+        design = design_feedback(model, poles, gain, method)
+    except DesignError as e:
+        raise _named('feedback.gain' if gain is not None else 'feedback.poles', e) from e
+    reference = params['feedback.reference_gain']
+    if reference:
+        reference_gain = matrix_from_flat('feedback.reference_gain', reference,
+                                          model.n_inputs, model.n_outputs)
+    else:
+        reference_gain = design.reference_gain
+    limits = _limits('feedback.input_limits', params['feedback.input_limits'], model.n_inputs)
+    timeout = params['feedback.timeout']
+    if timeout <= 0.0:
+        raise ConfigError('feedback.timeout', f'expected a time > 0 s, got {timeout}')
+    safe = params['feedback.safe_command']
+    safe_command = (vector_from_flat('feedback.safe_command', safe, model.n_inputs) if safe
+                    else np.zeros(model.n_inputs))
+    return FeedbackSettings(design=design, reference_gain=reference_gain, input_limits=limits,
+                            timeout=timeout, safe_command=safe_command)
+
+
+def _limits(parameter: str, values, n_inputs: int):
+    try:
+        return input_limits_from_flat(values, n_inputs)
+    except ConfigError as e:
+        raise ConfigError(parameter, str(e).split(': ', 1)[-1]) from e
+
+
+def _plant(params: dict, model: StateSpaceModel) -> PlantSettings:
+    rate = params['plant.rate_hz']
+    if rate <= 0.0:
+        raise ConfigError('plant.rate_hz', f'expected a rate > 0 Hz, got {rate}')
+    if model.is_discrete and abs(rate * model.dt - 1.0) > 1e-9:
+        raise ConfigError('plant.rate_hz', f'a discrete model with model.dt = {model.dt} s '
+                          f'runs at {1.0 / model.dt:g} Hz, got {rate}')
+    initial = params['plant.initial_state']
+    initial_state = (vector_from_flat('plant.initial_state', initial, model.n_states)
+                     if initial else np.zeros(model.n_states))
+    if params['plant.process_noise']:
+        covariance_from_flat('plant.process_noise', params['plant.process_noise'],
+                             model.n_states)
+    if params['plant.measurement_noise']:
+        covariance_from_flat('plant.measurement_noise', params['plant.measurement_noise'],
+                             model.n_outputs)
+    return PlantSettings(rate_hz=rate, initial_state=initial_state,
+                         process_noise=params['plant.process_noise'],
+                         measurement_noise=params['plant.measurement_noise'],
+                         seed=params['plant.seed'],
+                         input_limits=_limits('plant.input_limits', params['plant.input_limits'],
+                                              model.n_inputs))
+
+
+def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> System:
+    """
+    Validate a flat parameter mapping and build every design it defines.
+
+    Parameters
+    ----------
+    params : mapping
+        ``{'model.A': [...], 'observer.type': 'chen', ...}``; missing names take their
+        defaults from :data:`PARAMETERS`.
+    strict : bool
+        Reject unknown ``model.*``, ``observer.*``, ``feedback.*`` and ``plant.*`` names.
+
+    Returns
+    -------
+    System
+
+    Raises
+    ------
+    ConfigError
+        The message starts with the parameter name and says what was expected. Design
+        failures (unobservable pair, unstable given gain...) are reported against the
+        parameter that caused them.
+
+    """
+    complete = complete_parameters(params, strict)
+    if not complete['model.A']:
+        raise ConfigError('model.A', 'missing: the model needs A, B and C')
+    model = StateSpaceModel.from_flat(
+        complete['model.A'], complete['model.B'], complete['model.C'], complete['model.D'],
+        complete['model.dt'], complete['model.state_names'], complete['model.input_names'],
+        complete['model.output_names'])
+    try:
+        observer = _design_observer(complete, model)
+    except DesignError as e:
+        parameter = 'observer.gain' if complete['observer.gain'] else 'observer.poles'
+        if complete['observer.type'] == 'kalman':
+            parameter = 'observer.process_noise'
+        raise _named(parameter, e) from e
+    initial = complete['observer.initial_state']
+    initial_estimate = (vector_from_flat('observer.initial_state', initial, model.n_states)
+                        if initial else np.zeros(model.n_states))
+    feedback = _feedback(complete, model)
+    plant = _plant(complete, model)
+    controller_tf, cl_poles, notes = None, None, []
+    if observer is not None and feedback is not None:
+        cl_poles = closed_loop_poles(model, observer.realization, feedback.design.gain)
+        if model.n_inputs == 1 and model.n_outputs == 1:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter('always')
+                controller_tf = controller_transfer_function(
+                    model, observer.realization, feedback.design.gain)
+            notes.extend(str(w.message) for w in caught)
+    return System(parameters=complete, model=model, observer=observer,
+                  observer_type=complete['observer.type'], initial_estimate=initial_estimate,
+                  feedback=feedback, plant=plant, controller_tf=controller_tf,
+                  closed_loop_poles=cl_poles, notes=tuple(notes))

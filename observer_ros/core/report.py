@@ -1,0 +1,204 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""Design summaries: a JSON-ready dict and a MATLAB-session-like text report."""
+
+import numpy as np
+
+from observer_ros.core.analysis import controllability, observability
+from observer_ros.core.config import System
+from observer_ros.core.design.chen import ChenDesign
+from observer_ros.core.design.controller import diophantine_controller, polynomial_text
+from observer_ros.core.design.kalman import KalmanDesign
+from observer_ros.core.design.reduced_order import ReducedOrderDesign
+from observer_ros.core.errors import DesignError
+from observer_ros.core.estimators import step_design_for
+from observer_ros.core.poles import pole_pairs
+
+
+def _rows(matrix) -> list:
+    return np.atleast_2d(np.asarray(matrix, dtype=float)).tolist()
+
+
+def _diophantine(system: System):
+    model, observer, feedback = system.model, system.observer, system.feedback
+    if observer is None or feedback is None or system.controller_tf is None:
+        return None
+    try:
+        return diophantine_controller(model, feedback.design.requested_poles,
+                                      observer.requested_poles)
+    except DesignError:
+        return None
+
+
+def _sampled_step(system: System):
+    """Runtime step matrices at the plant rate (continuous models only)."""
+    if system.observer is None:
+        return None
+    step_design = step_design_for(system.observer, system.parameters['observer.method'])
+    return step_design.step(system.plant.period_ns)
+
+
+def design_summary(system: System) -> dict:
+    """
+    Summarize a validated system as plain JSON types.
+
+    Keys: ``model`` (n, m, p, dt, observability and controllability), ``observer.*``
+    (type, gain rows, requested and achieved poles as ``[re, im]``, method, residual, and
+    the type's matrices), ``feedback.*`` when present, ``closed_loop_poles``,
+    ``controller_tf`` (``num``/``den`` highest power first, ``den`` monic) and its
+    Diophantine cross-check, ``sampled`` (the runtime step at ``plant.rate_hz``) and
+    ``notes``.
+    """
+    model = system.model
+    obs = observability(model.a, model.c)
+    ctrb = controllability(model.a, model.b)
+    summary = {
+        'model': {
+            'n_states': model.n_states, 'n_inputs': model.n_inputs,
+            'n_outputs': model.n_outputs, 'dt': model.dt,
+            'observable': obs.full_rank, 'observability_rank': obs.rank,
+            'observability_condition': obs.condition_number,
+            'unobservable_modes': pole_pairs(obs.lost_modes),
+            'controllable': ctrb.full_rank, 'controllability_rank': ctrb.rank,
+            'controllability_condition': ctrb.condition_number,
+            'uncontrollable_modes': pole_pairs(ctrb.lost_modes),
+        },
+        'notes': list(system.notes),
+    }
+    observer = system.observer
+    if observer is not None:
+        summary['observer.type'] = observer.kind
+        summary['observer.gain'] = _rows(observer.gain)
+        summary['observer.poles'] = pole_pairs(observer.achieved_poles)
+        summary['observer.requested_poles'] = pole_pairs(observer.requested_poles)
+        summary['observer.method'] = observer.method
+        summary['observer.residual'] = observer.residual
+        summary['observer.order'] = observer.order
+        if isinstance(observer, ReducedOrderDesign):
+            summary['observer.transform'] = _rows(observer.transform)
+            for name in ('a_hat', 'b_hat', 'f_hat', 'c_hat', 'd_hat'):
+                summary[f'observer.{name}'] = _rows(getattr(observer, name))
+        if isinstance(observer, ChenDesign):
+            summary['observer.f'] = _rows(observer.f)
+            summary['observer.t'] = _rows(observer.t)
+            summary['observer.condition'] = observer.condition
+        if isinstance(observer, KalmanDesign):
+            summary['observer.covariance'] = _rows(observer.covariance)
+            if observer.filter_gain is not None:
+                summary['observer.filter_gain'] = _rows(observer.filter_gain)
+        step = _sampled_step(system)
+        if step is not None and not model.is_discrete:
+            summary['sampled'] = {
+                'rate_hz': system.plant.rate_hz,
+                'poles': pole_pairs(step.poles),
+                'step_matrix': _rows(step.g),
+            }
+    feedback = system.feedback
+    if feedback is not None:
+        summary['feedback.gain'] = _rows(feedback.design.gain)
+        summary['feedback.poles'] = pole_pairs(feedback.design.achieved_poles)
+        summary['feedback.method'] = feedback.design.method
+        summary['feedback.residual'] = feedback.design.residual
+        summary['feedback.reference_gain'] = (None if feedback.reference_gain is None
+                                              else _rows(feedback.reference_gain))
+    if system.closed_loop_poles is not None:
+        summary['closed_loop_poles'] = pole_pairs(system.closed_loop_poles)
+    tf = system.controller_tf
+    if tf is not None:
+        summary['controller_tf'] = {
+            'num': tf.num.tolist(), 'den': tf.den.tolist(), 'zeros': pole_pairs(tf.zeros),
+            'poles': pole_pairs(tf.poles), 'gain': tf.gain, 'unstable': tf.unstable,
+        }
+        check = _diophantine(system)
+        if check is not None:
+            summary['controller_tf_diophantine'] = {'num': check.num.tolist(),
+                                                    'den': check.den.tolist()}
+    return summary
+
+
+def _matrix_text(name: str, matrix) -> str:
+    matrix = np.atleast_2d(np.asarray(matrix, dtype=float))
+    body = '\n'.join('    ' + '  '.join(f'{value:12.6g}' for value in row) for row in matrix)
+    return f'{name} =\n{body}\n'
+
+
+def _poles_text(poles) -> str:
+    def one(pole):
+        if pole.imag == 0:
+            return f'{pole.real:.6g}'
+        return f'{pole.real:.6g}{pole.imag:+.6g}j'
+    return '[' + ', '.join(one(complex(p)) for p in poles) + ']'
+
+
+def format_report(system: System) -> str:
+    """Text report in the spirit of the seeds' MATLAB sessions."""
+    model = system.model
+    out = []
+    kind = 'discrete (dt = %g s)' % model.dt if model.is_discrete else 'continuous'
+    out.append(f'Model: n = {model.n_states}, m = {model.n_inputs}, '
+               f'p = {model.n_outputs}, {kind}\n')
+    obs = observability(model.a, model.c)
+    out.append(f'Observability matrix: rank {obs.rank} of {obs.n_states}, '
+               f'condition {obs.condition_number:.4g}\n')
+    observer = system.observer
+    if observer is not None:
+        out.append(f'\nObserver: {observer.kind} (order {observer.order}), '
+                   f'method {observer.method}\n')
+        out.append(_matrix_text('L', observer.gain))
+        out.append(f'requested poles = {_poles_text(observer.requested_poles)}\n')
+        out.append(f'achieved poles  = {_poles_text(observer.achieved_poles)}\n')
+        out.append(f'residual = {observer.residual:.3g}\n')
+        if isinstance(observer, ReducedOrderDesign):
+            out.append(_matrix_text('Q (w = Q x)', observer.transform))
+            out.append(_matrix_text('Ahat = Abb - L Aab', observer.a_hat))
+            out.append(_matrix_text('Bhat = Ahat L + Aba - L Aaa', observer.b_hat))
+            out.append(_matrix_text('Fhat = Bb - L Ba', observer.f_hat))
+            out.append(_matrix_text('Chat', observer.c_hat))
+            out.append(_matrix_text('Dhat', observer.d_hat))
+        if isinstance(observer, ChenDesign):
+            out.append(_matrix_text('F', observer.f))
+            out.append(_matrix_text('T (T A - F T = L C)', observer.t))
+            out.append(f'cond([C; T]) = {observer.condition:.4g}\n')
+        if isinstance(observer, KalmanDesign):
+            out.append(_matrix_text('P', observer.covariance))
+            if observer.filter_gain is not None:
+                out.append(_matrix_text('M (filter gain; L = A M)', observer.filter_gain))
+        step = _sampled_step(system)
+        if step is not None and not model.is_discrete:
+            out.append(f'sampled at {system.plant.rate_hz:g} Hz: discrete poles '
+                       f'{_poles_text(step.poles)}\n')
+    feedback = system.feedback
+    if feedback is not None:
+        out.append(f'\nState feedback (method {feedback.design.method})\n')
+        out.append(_matrix_text('K', feedback.design.gain))
+        out.append(f'poles of A - B K = {_poles_text(feedback.design.achieved_poles)}\n')
+        if feedback.reference_gain is not None:
+            out.append(_matrix_text('N (reference gain)', feedback.reference_gain))
+    if system.closed_loop_poles is not None:
+        out.append(f'\nClosed-loop poles = {_poles_text(system.closed_loop_poles)}\n')
+    tf = system.controller_tf
+    if tf is not None:
+        variable = 'z' if model.is_discrete else 's'
+        out.append('\nObserver-controller G_oc = -U/Y:\n')
+        out.append(f'    {polynomial_text(tf.num, variable)}\n')
+        out.append(f'    {"-" * 40}\n')
+        out.append(f'    {polynomial_text(tf.den, variable)}\n')
+        out.append(f'  zpk: {tf.format_zpk(variable)}\n')
+        check = _diophantine(system)
+        if check is not None:
+            out.append(f'  Diophantine A R + B S = Acl: {check.format_polynomials(variable)}\n')
+    for note in system.notes:
+        out.append(f'\nwarning: {note}\n')
+    return ''.join(out)
