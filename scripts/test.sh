@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# Copyright 2026 observer_ros contributors
+# Licensed under the Apache License, Version 2.0.
+#
+# Set up the environment (first run) and run the whole test suite. Extra arguments go to
+# pytest. ROS traffic stays on this machine, in a domain of its own (see test/conftest.py).
+source "$(dirname "$0")/setup_env.sh"
+cd "$ROOT"
+exec python -m pytest "$@"

@@ -1,0 +1,36 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""README stays in step with the code: commands, CI and the parameter schema."""
+
+from conftest import REPOSITORY
+from observer_ros.core.config import PARAMETERS
+
+README = (REPOSITORY / 'README.md').read_text(encoding='utf-8')
+
+
+def test_every_parameter_is_documented_with_its_default():
+    for spec in PARAMETERS:
+        assert f'| `{spec.name}` |' in README, spec.name
+
+
+def test_ci_runs_the_readme_test_command():
+    assert './scripts/test.sh' in README
+    ci = (REPOSITORY / '.ci' / 'run').read_text(encoding='utf-8')
+    assert 'exec ./scripts/test.sh' in ci
+
+
+def test_every_shipped_config_is_listed():
+    for path in (REPOSITORY / 'config').glob('*.yaml'):
+        assert path.name in README, path.name
