@@ -129,24 +129,24 @@ BAD_CASES = [
     ('model: {A: [0.0, 1.0, 0.0], B: [0.0, 1.0], C: [1.0, 0.0]}', r'model\.A: expected a square'),
     ('model: {A: [0.0, .nan, 0.0, 0.0], B: [0.0, 1.0], C: [1.0, 0.0]}',
      r'model\.A: expected finite numbers, entry 1 is nan'),
-    ("model: {A: [1.0, 0.0, 0.0, 2.0], B: [1.0, 1.0], C: [1.0, 0.0]}\n"
+    ('model: {A: [1.0, 0.0, 0.0, 2.0], B: [1.0, 1.0], C: [1.0, 0.0]}\n'
      "    observer: {poles: ['-1', '-2']}", r'observer\.poles: \(A, C\) is not observable: the '
      r'modes 2 cannot'),
-    ("model: {A: [0.0, 1.0, 0.0, 0.0], B: [0.0, 1.0], C: [1.0, 0.0]}\n"
-     "    observer: {gain: [-1.0, 1.0]}", r'observer\.gain: the given gain makes the observer '
+    ('model: {A: [0.0, 1.0, 0.0, 0.0], B: [0.0, 1.0], C: [1.0, 0.0]}\n'
+     '    observer: {gain: [-1.0, 1.0]}', r'observer\.gain: the given gain makes the observer '
      r'error unstable'),
-    ("model: {A: [0.0, 1.0, 0.0, 0.0], B: [0.0, 1.0], C: [1.0, 0.0]}\n"
+    ('model: {A: [0.0, 1.0, 0.0, 0.0], B: [0.0, 1.0], C: [1.0, 0.0]}\n'
      "    observer: {poles: ['-1+1j', '-2']}", r'observer\.poles: complex pole \(-1\+1j\) has '
      r'no conjugate'),
-    ("model: {A: [0.0, 1.0, 0.0, 0.0], B: [0.0, 1.0], C: [1.0, 0.0]}\n"
+    ('model: {A: [0.0, 1.0, 0.0, 0.0], B: [0.0, 1.0], C: [1.0, 0.0]}\n'
      "    observer: {poles: ['-1', '-2', '-3']}", r'observer\.poles: expected 2 poles'),
-    ("model: {A: [0.0, 1.0, 0.0, 0.0], B: [0.0, 1.0], C: [1.0, 0.0]}\n"
+    ('model: {A: [0.0, 1.0, 0.0, 0.0], B: [0.0, 1.0], C: [1.0, 0.0]}\n'
      "    feedbak: {poles: ['-1', '-2']}", r'feedbak\.poles: unknown parameter'),
-    ("model: {A: [1.0, 0.0, 0.0, 2.0], B: [1.0, 0.0], C: [1.0, 1.0]}\n"
+    ('model: {A: [1.0, 0.0, 0.0, 2.0], B: [1.0, 0.0], C: [1.0, 1.0]}\n'
      "    feedback: {poles: ['-1', '-2']}", r'feedback\.poles: \(A, B\) is not controllable: '
      r'the modes 2 cannot be moved'),
-    ("model: {A: [0.0, 1.0, 0.0, 0.0], B: [0.0, 1.0], C: [1.0, 0.0]}\n"
-     "    observer: {type: 'luenberger'}", r"observer\.type: expected one of full_order"),
+    ('model: {A: [0.0, 1.0, 0.0, 0.0], B: [0.0, 1.0], C: [1.0, 0.0]}\n'
+     "    observer: {type: 'luenberger'}", r'observer\.type: expected one of full_order'),
 ]
 
 
