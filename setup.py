@@ -42,6 +42,10 @@ setup(
     entry_points={
         'console_scripts': [
             'design_observer = observer_ros.tools.design_observer:main',
+            'plant_simulator = observer_ros.nodes.plant_simulator:main',
+            'observer = observer_ros.nodes.observer:main',
+            'state_feedback = observer_ros.nodes.state_feedback:main',
+            'closed_loop = observer_ros.nodes.closed_loop:main',
         ],
     },
 )

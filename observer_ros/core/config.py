@@ -140,7 +140,38 @@ PARAMETERS = (
     ParameterSpec('plant.seed', INTEGER, 0, 'Seed of the plant noise.'),
     ParameterSpec('plant.input_limits', DOUBLE_ARRAY, [],
                   'Input saturation: [min, max] or [min_1, max_1, ..., min_m, max_m].'),
+    ParameterSpec('plant.lockstep', BOOL, False,
+                  'Lockstep: publish /clock and advance only when the command computed '
+                  'from the current sample has arrived (deterministic, faster than real '
+                  'time).'),
+    ParameterSpec('plant.lockstep_timeout', DOUBLE, 1.0,
+                  'Lockstep: wall-clock seconds to wait for the command before advancing '
+                  'with the last one (with a warning).'),
+    ParameterSpec('plant.samples', INTEGER, 0,
+                  'Number of samples to simulate, then stop; 0 runs until shut down.'),
+    ParameterSpec('observer.input_wait', DOUBLE, 0.05,
+                  'Wall-clock seconds a measurement may wait for the stamped input of its '
+                  'interval before the latest earlier input is used.'),
+    ParameterSpec('observer.max_gap', DOUBLE, 1.0,
+                  'Seconds between measurements beyond which (or a backward jump beyond '
+                  'which) the estimator restarts from the new sample.'),
+) + tuple(
+    spec for topic, names in (('y', 'output'), ('u', 'input'), ('u_cmd', 'input'),
+                              ('x_hat', 'state'), ('x_true', 'state'),
+                              ('reference', 'output'), ('innovation', 'output'))
+    for spec in (
+        ParameterSpec(f'topics.{topic}.type', STRING, 'joint_state',
+                      f'Message type of {topic}: joint_state (sensor_msgs/JointState, the '
+                      f'model {names} names as joint names) | float64_multi_array '
+                      f'(std_msgs/Float64MultiArray, unstamped).'),
+        ParameterSpec(f'topics.{topic}.field', STRING, 'position',
+                      f'JointState field holding {topic}: position | velocity | effort.'),
+    )
 )
+
+MESSAGE_TYPES = ('joint_state', 'float64_multi_array')
+JOINT_STATE_FIELDS = ('position', 'velocity', 'effort')
+TOPICS = ('y', 'u', 'u_cmd', 'x_hat', 'x_true', 'reference', 'innovation')
 
 PARAMETER_SPECS = {spec.name: spec for spec in PARAMETERS}
 
@@ -477,6 +508,23 @@ def _plant(params: dict, model: StateSpaceModel) -> PlantSettings:
                                               model.n_inputs))
 
 
+def _check_topics(params: dict) -> None:
+    for topic in TOPICS:
+        kind = params[f'topics.{topic}.type']
+        if kind not in MESSAGE_TYPES:
+            raise ConfigError(f'topics.{topic}.type',
+                              f'expected one of {", ".join(MESSAGE_TYPES)}, got {kind!r}')
+        joint_field = params[f'topics.{topic}.field']
+        if joint_field not in JOINT_STATE_FIELDS:
+            raise ConfigError(f'topics.{topic}.field', f'expected one of '
+                              f'{", ".join(JOINT_STATE_FIELDS)}, got {joint_field!r}')
+    for name in ('observer.input_wait', 'observer.max_gap', 'plant.lockstep_timeout'):
+        if params[name] < 0.0 or (name != 'observer.input_wait' and params[name] == 0.0):
+            raise ConfigError(name, f'expected a positive time in seconds, got {params[name]}')
+    if params['plant.samples'] < 0:
+        raise ConfigError('plant.samples', f'expected >= 0, got {params["plant.samples"]}')
+
+
 def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> System:
     """
     Validate a flat parameter mapping and build every design it defines.
@@ -502,6 +550,7 @@ def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> Syst
 
     """
     complete = complete_parameters(params, strict)
+    _check_topics(complete)
     if not complete['model.A']:
         raise ConfigError('model.A', 'missing: the model needs A, B and C')
     model = StateSpaceModel.from_flat(

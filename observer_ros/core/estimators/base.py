@@ -160,6 +160,7 @@ class Estimator:
         self._cache_size = cache_size
         self._stamp: Optional[int] = None
         self._x = self.initial_state.copy()
+        self._start = self.initial_state
         self._innovation = np.zeros(self.n_outputs)
         self._step: Optional[StepMatrices] = None
         self._buffer = np.zeros(self.n_states + self.n_inputs + self.n_outputs)
@@ -240,7 +241,7 @@ class Estimator:
         u = self._vector('u', u, self.n_inputs)
         stamp_ns = int(stamp_ns)
         if self._stamp is None:
-            self._x = self.design.initial_estimate(self.initial_state, y)
+            self._x = self.design.initial_estimate(self._start, y)
             self._innovation = np.zeros(self.n_outputs)
             self._stamp = stamp_ns
             return self._x
@@ -267,7 +268,14 @@ class Estimator:
             self.initial_state = self._vector('observer.initial_state', initial_state,
                                               self.n_states)
         self._x = self.initial_state.copy()
+        self._start = self.initial_state
         self._innovation = np.zeros(self.n_outputs)
+        self._stamp = None
+        self._step = None
+
+    def restart(self) -> None:
+        """Forget the stamps but continue from the current estimate at the next sample."""
+        self._start = self._x.copy()
         self._stamp = None
         self._step = None
 

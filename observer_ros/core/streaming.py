@@ -1,0 +1,193 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Measurements and inputs arriving as streams: pairing by stamp and stamp hygiene.
+
+:class:`StreamEstimator` feeds an :class:`~observer_ros.core.estimators.Estimator` from two
+streams, as the observer node and the offline bag replay both do (one code path, so they
+give identical estimates). For the interval ending at measurement ``k`` the input is the
+latest one stamped at or before measurement ``k-1``: a future input never leaks into the
+past. A measurement whose input may still be on its way waits (``pending``) until an input
+stamped at or after the previous measurement arrives, or until :meth:`flush`.
+
+Bad stamps never crash and never produce NaN: duplicates and small backward steps are
+dropped and counted; a backward jump or a gap longer than ``max_gap_ns`` restarts the
+estimator from the new sample.
+"""
+
+import bisect
+from collections import Counter
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from observer_ros.core.estimators import Estimator
+
+#: Inputs kept at most (older ones are dropped once no interval can need them).
+MAX_INPUTS = 10_000
+
+
+@dataclass(frozen=True)
+class EstimateSample:
+    """One published estimate: stamp, ``x_hat``, innovation and (Kalman) covariance."""
+
+    stamp_ns: int
+    estimate: np.ndarray
+    innovation: np.ndarray
+    covariance: Optional[np.ndarray]
+
+
+class StreamEstimator:
+    """
+    Pair stamped inputs with stamped measurements and run the estimator.
+
+    Parameters
+    ----------
+    estimator : Estimator
+    max_gap_ns : int
+        A forward gap or backward jump longer than this restarts the estimator.
+    input_stamped : bool
+        False when inputs are stamped on arrival (unstamped messages): then no measurement
+        waits for a later input.
+
+    Attributes
+    ----------
+    counters : collections.Counter
+        ``measurements``, ``estimates``, ``duplicate``, ``out_of_order``,
+        ``restart_gap``, ``restart_backward_jump``, ``no_input``, ``late_input``, ``inputs``.
+    events : list of (str, str)
+        ``(kind, text)`` of notable events since the caller last cleared it.
+
+    """
+
+    def __init__(self, estimator: Estimator, max_gap_ns: int, input_stamped: bool = True):
+        self.estimator = estimator
+        self.max_gap_ns = int(max_gap_ns)
+        self.input_stamped = input_stamped
+        self.counters: Counter = Counter()
+        self.events: list = []
+        self._input_stamps: list = []
+        self._inputs: list = []
+        self._pending: list = []
+        self._zero_input = np.zeros(estimator.n_inputs)
+        self._inputs_absent = False
+
+    @property
+    def pending(self) -> int:
+        """Number of measurements waiting for their input."""
+        return len(self._pending)
+
+    def reset(self) -> None:
+        """Restart the estimator from its initial state; inputs are kept."""
+        self.estimator.reset()
+        self._pending.clear()
+
+    def add_input(self, stamp_ns: int, u) -> list:
+        """Store an input; return the estimates of measurements it releases."""
+        self.counters['inputs'] += 1
+        self._inputs_absent = False
+        stamp_ns = int(stamp_ns)
+        index = bisect.bisect_left(self._input_stamps, stamp_ns)
+        vector = np.array(u, dtype=float)
+        if index < len(self._input_stamps) and self._input_stamps[index] == stamp_ns:
+            self._inputs[index] = vector
+        else:
+            self._input_stamps.insert(index, stamp_ns)
+            self._inputs.insert(index, vector)
+        self._prune()
+        return self._release(force=False)
+
+    def add_measurement(self, stamp_ns: int, y) -> list:
+        """Take a measurement; return the estimates produced now (possibly none)."""
+        self.counters['measurements'] += 1
+        self._pending.append((int(stamp_ns), np.array(y, dtype=float)))
+        return self._release(force=False)
+
+    def flush(self) -> list:
+        """Process every waiting measurement with the inputs at hand."""
+        if self._pending and not self._input_stamps:
+            self._inputs_absent = True
+        return self._release(force=True)
+
+    def _ready(self, previous: int) -> bool:
+        if not self.input_stamped or self._inputs_absent:
+            return True
+        return bool(self._input_stamps) and self._input_stamps[-1] >= previous
+
+    def _input_for(self, previous: int) -> np.ndarray:
+        index = bisect.bisect_right(self._input_stamps, previous) - 1
+        if index < 0:
+            if self._input_stamps:
+                self.counters['late_input'] += 1
+            else:
+                self.counters['no_input'] += 1
+            return self._zero_input
+        return self._inputs[index]
+
+    def _release(self, force: bool) -> list:
+        produced = []
+        while self._pending:
+            stamp, y = self._pending[0]
+            previous = self.estimator.stamp_ns
+            if previous is not None and 0 < stamp - previous <= self.max_gap_ns:
+                if not (force or self._ready(previous)):
+                    break
+                if not self._ready(previous):
+                    self.counters['late_input'] += 1
+                u = self._input_for(previous)
+            else:
+                u = self._zero_input
+            self._pending.pop(0)
+            sample = self._process(stamp, y, u, previous)
+            if sample is not None:
+                produced.append(sample)
+        return produced
+
+    def _process(self, stamp: int, y: np.ndarray, u: np.ndarray,
+                 previous: Optional[int]) -> Optional[EstimateSample]:
+        if previous is not None:
+            step = stamp - previous
+            if step == 0:
+                self.counters['duplicate'] += 1
+                self.events.append(('duplicate', f'dropped a measurement with a repeated '
+                                    f'stamp ({stamp} ns)'))
+                return None
+            if -self.max_gap_ns <= step < 0:
+                self.counters['out_of_order'] += 1
+                self.events.append(('out_of_order', f'dropped a measurement older than the '
+                                    f'previous one ({stamp} < {previous} ns)'))
+                return None
+            if step < 0 or step > self.max_gap_ns:
+                kind = 'restart_backward_jump' if step < 0 else 'restart_gap'
+                self.counters[kind] += 1
+                self.events.append((kind, f'time jumped by {step / 1e9:.3f} s; the estimator '
+                                    f'restarts from this sample'))
+                self.estimator.restart()
+        estimate = self.estimator.update(stamp, y, u)
+        self.counters['estimates'] += 1
+        return EstimateSample(stamp, estimate, self.estimator.innovation,
+                              self.estimator.covariance)
+
+    def _prune(self) -> None:
+        previous = self.estimator.stamp_ns
+        if previous is None:
+            keep_from = max(0, len(self._input_stamps) - MAX_INPUTS)
+        else:
+            keep_from = max(0, bisect.bisect_right(self._input_stamps, previous) - 1)
+            keep_from = max(keep_from, len(self._input_stamps) - MAX_INPUTS)
+        if keep_from:
+            del self._input_stamps[:keep_from]
+            del self._inputs[:keep_from]

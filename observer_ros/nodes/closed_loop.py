@@ -1,0 +1,116 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+``closed_loop``: plant simulator, observer and state feedback in one process.
+
+The three nodes share one executor and the same parameters (``--ros-args --params-file``).
+With ``plant.lockstep`` the observer and the feedback run on the plant's ``/clock``.
+``--report DIR`` also records ``x_true`` and ``x_hat`` and, when ``plant.samples`` are done,
+prints the per-state error table and writes ``DIR/closed_loop.png``.
+"""
+
+import argparse
+import os
+import sys
+from typing import Optional
+
+import rclpy
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.parameter import Parameter
+from rclpy.utilities import remove_ros_args
+
+from observer_ros.core.errors import ConfigError, DesignError
+from observer_ros.core.evaluation import (
+    align, decay_rate, error_report, format_error_table, settling_time)
+from observer_ros.core.plots import plot_estimation
+from observer_ros.nodes.observer import ObserverNode
+from observer_ros.nodes.plant_simulator import PlantSimulatorNode
+from observer_ros.nodes.state_feedback import StateFeedbackNode
+from observer_ros.ros.recorder import TopicRecorder
+
+
+class ClosedLoop:
+    """The three nodes (and an optional recorder) on one executor."""
+
+    def __init__(self, record: bool = False, executor=None) -> None:
+        self.plant = PlantSimulatorNode()
+        sim_time = [Parameter('use_sim_time', value=True)] if self.plant.lockstep else []
+        self.observer = ObserverNode(parameter_overrides=sim_time)
+        self.feedback = StateFeedbackNode(parameter_overrides=sim_time)
+        self.nodes = [self.plant, self.observer, self.feedback]
+        self.recorder = None
+        if record:
+            self.recorder = TopicRecorder(self.plant.system,
+                                          ('y', 'u', 'u_cmd', 'x_true', 'x_hat'))
+            self.nodes.append(self.recorder)
+        self.executor = executor or SingleThreadedExecutor()
+        for node in self.nodes:
+            self.executor.add_node(node)
+
+    def spin(self, timeout_sec: Optional[float] = None) -> bool:
+        """Spin until ``plant.samples`` are done (or forever); True when they are."""
+        if self.plant.samples:
+            self.executor.spin_until_future_complete(self.plant.finished, timeout_sec)
+            return self.plant.finished.done()
+        self.executor.spin()
+        return False
+
+    def destroy(self) -> None:
+        """Destroy every node."""
+        for node in self.nodes:
+            self.executor.remove_node(node)
+            node.destroy_node()
+
+    def report(self, directory: str) -> str:
+        """Error table of ``x_hat`` against ``x_true``; writes the PNG plot into ``directory``."""
+        system = self.observer.system
+        stamps, truth, estimate = align(*self.recorder.arrays('x_true'),
+                                        *self.recorder.arrays('x_hat'))
+        dt = system.model.dt
+        poles = system.observer.achieved_poles
+        settle = settling_time(poles, dt)
+        report = error_report(stamps, truth, estimate, system.model.state_names, settle)
+        os.makedirs(directory, exist_ok=True)
+        path = os.path.join(directory, 'closed_loop.png')
+        plot_estimation(path, report, truth, estimate, decay_rate(poles, dt),
+                        title=f'{system.observer.kind} observer in closed loop')
+        return format_error_table(report) + f'\nplot: {path}'
+
+
+def main(args=None) -> int:
+    """Entry point of ``ros2 run observer_ros closed_loop``."""
+    argv = sys.argv if args is None else args
+    parser = argparse.ArgumentParser(
+        prog='closed_loop', description='Plant, observer and state feedback in one process.')
+    parser.add_argument('--report', metavar='DIR',
+                        help='print the error table and write DIR/closed_loop.png at the end')
+    options = parser.parse_args(remove_ros_args(argv)[1:])
+    rclpy.init(args=argv)
+    try:
+        loop = ClosedLoop(record=options.report is not None)
+    except (ConfigError, DesignError) as e:
+        print(f'closed_loop: error: {e}', file=sys.stderr)
+        rclpy.try_shutdown()
+        return 2
+    try:
+        done = loop.spin()
+        if done and options.report:
+            print(loop.report(options.report))
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        loop.destroy()
+        rclpy.try_shutdown()
+    return 0

@@ -1,0 +1,151 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+``observer``: subscribe ``y`` and ``u``, publish the state estimate ``x_hat``.
+
+Also publishes ``innovation`` (``y - C x_hat_prior``), ``x_hat_covariance`` (Kalman,
+``std_msgs/Float64MultiArray``, n x n row-major) and counters on ``/diagnostics``; offers
+``~/reset`` (``std_srvs/Trigger``).
+"""
+
+from collections import Counter
+
+from rclpy.clock import Clock, ClockType
+from std_msgs.msg import Float64MultiArray
+from std_srvs.srv import Trigger
+
+from observer_ros.core.errors import ConfigError
+from observer_ros.core.estimators import step_design_for
+from observer_ros.core.streaming import StreamEstimator
+from observer_ros.ros.diagnostics import DiagnosticsPublisher
+from observer_ros.ros.messages import MalformedMessage, VectorCodec
+from observer_ros.ros.parameters import (
+    ConfiguredNode, PUBLISHER_QOS, QOS_OVERRIDES, run_node, SUBSCRIPTION_QOS)
+
+NANOSECONDS = 1_000_000_000
+
+
+class ObserverNode(ConfiguredNode):
+    """The observer node: one :class:`StreamEstimator` wired to topics."""
+
+    def __init__(self, node_name: str = 'observer', **kwargs) -> None:
+        super().__init__(node_name, **kwargs)
+        system = self.system
+        self.vet_system(system)
+        self.codecs = {topic: VectorCodec.for_topic(system, topic)
+                       for topic in ('y', 'u', 'x_hat', 'innovation')}
+        self.stream = StreamEstimator(
+            system.make_estimator(),
+            int(system.parameters['observer.max_gap'] * NANOSECONDS),
+            input_stamped=self.codecs['u'].stamped)
+        self.node_counters: Counter = Counter()
+        self.x_hat_publisher = self._publisher('x_hat')
+        self.innovation_publisher = self._publisher('innovation')
+        self.covariance_publisher = (
+            self.create_publisher(Float64MultiArray, 'x_hat_covariance', PUBLISHER_QOS,
+                                  qos_overriding_options=QOS_OVERRIDES)
+            if system.observer.kind == 'kalman' else None)
+        self.create_subscription(self.codecs['y'].message_class, 'y', self._on_measurement,
+                                 SUBSCRIPTION_QOS, qos_overriding_options=QOS_OVERRIDES)
+        self.create_subscription(self.codecs['u'].message_class, 'u', self._on_input,
+                                 SUBSCRIPTION_QOS, qos_overriding_options=QOS_OVERRIDES)
+        self.create_service(Trigger, '~/reset', self._on_reset)
+        self.wait_timer = self.create_timer(
+            system.parameters['observer.input_wait'] or 1e-3, self._on_wait_expired,
+            clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.wait_timer.cancel()
+        self.diagnostics = DiagnosticsPublisher(self, self.counters)
+        self.get_logger().info(
+            f'{system.observer.kind} observer of order {system.observer.order}, poles '
+            f'{[complex(p) for p in system.observer.achieved_poles]}')
+
+    def _publisher(self, topic: str):
+        return self.create_publisher(self.codecs[topic].message_class, topic, PUBLISHER_QOS,
+                                     qos_overriding_options=QOS_OVERRIDES)
+
+    def counters(self) -> Counter:
+        """Stream and node counters together."""
+        return self.stream.counters + self.node_counters
+
+    def vet_system(self, system) -> None:
+        """Refuse configurations without an observer."""
+        if system.observer is None:
+            raise ConfigError('observer.poles', 'the observer node needs observer.poles, '
+                              'observer.gain or the Kalman noise covariances')
+
+    def apply_system(self, previous, system) -> None:
+        """Switch gains without touching the estimate (no jump in x_hat)."""
+        estimator = self.stream.estimator
+        estimator.replace_design(step_design_for(system.observer,
+                                                 system.parameters['observer.method']))
+        estimator.initial_state = system.initial_estimate
+
+    def _now_ns(self) -> int:
+        return self.get_clock().now().nanoseconds
+
+    def _decode(self, topic: str, message):
+        try:
+            stamp, vector = self.codecs[topic].decode(message)
+        except MalformedMessage as e:
+            self.node_counters['malformed'] += 1
+            self.warn_once(f'malformed {topic}', f'dropped a malformed message: {e}')
+            return None, None
+        if stamp is None:
+            if self.codecs[topic].stamped:
+                self.warn_once(f'zero stamp {topic}',
+                               f'{topic}: messages with a zero stamp are stamped on arrival')
+            stamp = self._now_ns()
+        return stamp, vector
+
+    def _on_measurement(self, message) -> None:
+        stamp, y = self._decode('y', message)
+        if y is not None:
+            self._publish(self.stream.add_measurement(stamp, y))
+
+    def _on_input(self, message) -> None:
+        stamp, u = self._decode('u', message)
+        if u is not None:
+            self._publish(self.stream.add_input(stamp, u))
+
+    def _on_wait_expired(self) -> None:
+        self.wait_timer.cancel()
+        self._publish(self.stream.flush())
+
+    def _publish(self, samples) -> None:
+        for kind, text in self.stream.events:
+            self.warn_once(kind, text)
+        self.stream.events.clear()
+        if self.stream.pending and self.wait_timer.is_canceled():
+            self.wait_timer.reset()
+        for sample in samples:
+            self.x_hat_publisher.publish(
+                self.codecs['x_hat'].encode(sample.stamp_ns, sample.estimate))
+            self.innovation_publisher.publish(
+                self.codecs['innovation'].encode(sample.stamp_ns, sample.innovation))
+            if self.covariance_publisher is not None and sample.covariance is not None:
+                self.covariance_publisher.publish(
+                    Float64MultiArray(data=sample.covariance.ravel().tolist()))
+
+    def _on_reset(self, request, response):
+        self.stream.reset()
+        self.node_counters['resets'] += 1
+        response.success = True
+        response.message = 'estimator restarted from observer.initial_state'
+        return response
+
+
+def main(args=None) -> int:
+    """Entry point of ``ros2 run observer_ros observer``."""
+    return run_node(ObserverNode, 'observer', args)

@@ -1,0 +1,144 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Vectors on the wire: one codec per message kind, used by every node and bag tool.
+
+``sensor_msgs/JointState`` carries a named, stamped vector: the model's names are the joint
+names and the values sit in one field (``position`` by default). Extra joints are ignored
+and order does not matter, so ``/joint_states`` of a real robot works. ``std_msgs/
+Float64MultiArray`` carries the bare vector in ``data`` and no stamp: the receiver stamps it
+on arrival (ros2_control forward command controllers take this type).
+"""
+
+import math
+from typing import Optional, Sequence
+
+import numpy as np
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+
+from observer_ros.core.config import System
+
+MESSAGE_CLASSES = {'joint_state': JointState, 'float64_multi_array': Float64MultiArray}
+
+
+class MalformedMessage(ValueError):
+    """A message that cannot give the expected vector (reason in the text)."""
+
+
+def stamp_to_ns(stamp) -> int:
+    """``builtin_interfaces/Time`` to integer nanoseconds."""
+    return stamp.sec * 1_000_000_000 + stamp.nanosec
+
+
+def ns_to_stamp(stamp, nanoseconds: int) -> None:
+    """Write integer nanoseconds into a ``builtin_interfaces/Time`` in place."""
+    stamp.sec, stamp.nanosec = divmod(int(nanoseconds), 1_000_000_000)
+
+
+class VectorCodec:
+    """
+    Convert between one topic's messages and ``(stamp_ns, vector)``.
+
+    Parameters
+    ----------
+    topic : str
+        Topic key (``'y'``, ``'u'`` ...), used in error messages.
+    kind : {'joint_state', 'float64_multi_array'}
+    field : {'position', 'velocity', 'effort'}
+        JointState field holding the values.
+    names : sequence of str
+        Joint names, in vector order.
+
+    """
+
+    def __init__(self, topic: str, kind: str, field: str, names: Sequence[str]) -> None:
+        self.topic = topic
+        self.kind = kind
+        self.field = field
+        self.names = list(names)
+        self.size = len(self.names)
+        self.message_class = MESSAGE_CLASSES[kind]
+        self.stamped = kind == 'joint_state'
+        self._order_cache: dict = {}
+
+    @classmethod
+    def for_topic(cls, system: System, topic: str) -> 'VectorCodec':
+        """Codec of a topic configured by ``topics.<topic>.*`` and the model names."""
+        model = system.model
+        names = {'y': model.output_names, 'reference': model.output_names,
+                 'innovation': model.output_names, 'u': model.input_names,
+                 'u_cmd': model.input_names, 'x_hat': model.state_names,
+                 'x_true': model.state_names}[topic]
+        params = system.parameters
+        return cls(topic, params[f'topics.{topic}.type'], params[f'topics.{topic}.field'],
+                   names)
+
+    def encode(self, stamp_ns: int, vector) -> object:
+        """Build a message holding ``vector`` (stamped when the type has a header)."""
+        values = [float(value) for value in vector]
+        if self.kind == 'float64_multi_array':
+            return Float64MultiArray(data=values)
+        message = JointState(name=self.names)
+        ns_to_stamp(message.header.stamp, stamp_ns)
+        setattr(message, self.field, values)
+        return message
+
+    def _order(self, joint_names) -> list:
+        key = tuple(joint_names)
+        order = self._order_cache.get(key)
+        if order is None:
+            index = {name: position for position, name in enumerate(key)}
+            missing = [name for name in self.names if name not in index]
+            if missing:
+                raise MalformedMessage(
+                    f'{self.topic}: joints {missing} missing from the JointState (it has '
+                    f'{list(key)})')
+            order = [index[name] for name in self.names]
+            if len(self._order_cache) < 64:
+                self._order_cache[key] = order
+        return order
+
+    def decode(self, message) -> tuple[Optional[int], np.ndarray]:
+        """
+        Return ``(stamp_ns, vector)``; the stamp is None when the message carries none.
+
+        A JointState whose stamp is zero counts as unstamped.
+
+        Raises
+        ------
+        MalformedMessage
+            Wrong length, missing joints or a non-finite value.
+
+        """
+        if self.kind == 'float64_multi_array':
+            data = message.data
+            if len(data) != self.size:
+                raise MalformedMessage(
+                    f'{self.topic}: expected {self.size} values in data, got {len(data)}')
+            vector = np.array(data, dtype=float)
+            stamp = None
+        else:
+            values = getattr(message, self.field)
+            if len(values) != len(message.name):
+                raise MalformedMessage(
+                    f'{self.topic}: JointState has {len(message.name)} names but '
+                    f'{len(values)} {self.field} values')
+            order = self._order(message.name)
+            vector = np.array([values[i] for i in order], dtype=float)
+            stamp = stamp_to_ns(message.header.stamp) or None
+        if not all(math.isfinite(value) for value in vector):
+            raise MalformedMessage(f'{self.topic}: non-finite value in {vector.tolist()}')
+        return stamp, vector

@@ -1,0 +1,74 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""A node that collects vector topics into arrays (and keeps the raw messages)."""
+
+from collections import defaultdict
+
+import numpy as np
+from rclpy.node import Node
+
+from observer_ros.core.config import System
+from observer_ros.ros.messages import MalformedMessage, VectorCodec
+from observer_ros.ros.parameters import SUBSCRIPTION_QOS
+
+
+class TopicRecorder(Node):
+    """
+    Subscribe to the given topics and keep ``(stamp_ns, vector)`` per message.
+
+    Parameters
+    ----------
+    system : System
+        Gives each topic's message type and names.
+    topics : sequence of str
+        Topic keys (``'y'``, ``'u'``, ``'u_cmd'``, ``'x_true'``, ``'x_hat'`` ...).
+    keep_messages : bool
+        Also keep ``(receive_time_ns, message)`` pairs (for bag writing).
+
+    """
+
+    def __init__(self, system: System, topics, node_name: str = 'recorder',
+                 keep_messages: bool = False, **kwargs) -> None:
+        super().__init__(node_name, **kwargs)
+        self.codecs = {topic: VectorCodec.for_topic(system, topic) for topic in topics}
+        self.stamps: dict = defaultdict(list)
+        self.values: dict = defaultdict(list)
+        self.messages: dict = defaultdict(list)
+        self.keep_messages = keep_messages
+        for topic, codec in self.codecs.items():
+            self.create_subscription(codec.message_class, topic,
+                                     lambda message, t=topic: self._on_message(t, message),
+                                     SUBSCRIPTION_QOS)
+
+    def _on_message(self, topic: str, message) -> None:
+        now = self.get_clock().now().nanoseconds
+        if self.keep_messages:
+            self.messages[topic].append((now, message))
+        try:
+            stamp, vector = self.codecs[topic].decode(message)
+        except MalformedMessage:
+            return
+        self.stamps[topic].append(now if stamp is None else stamp)
+        self.values[topic].append(vector)
+
+    def count(self, topic: str) -> int:
+        """Return the number of messages recorded on a topic."""
+        return len(self.stamps[topic])
+
+    def arrays(self, topic: str):
+        """``(stamps_ns, values)`` of a topic as arrays, shapes ``(k,)`` and ``(k, size)``."""
+        size = self.codecs[topic].size
+        values = np.array(self.values[topic], dtype=float).reshape(-1, size)
+        return np.array(self.stamps[topic], dtype=np.int64), values
