@@ -23,6 +23,8 @@ eigenvalue), the observer reproduces ``x`` exactly from ``xi(0) = V x(0)`` if an
 ``Cr expm(Ar t) (xi(0) - V x(0))``.
 """
 
+import warnings
+
 import control
 import numpy as np
 import pytest
@@ -33,8 +35,8 @@ import scipy.signal
 
 from observer_ros.core.design.chen import design_chen, MAX_CONDITION
 from observer_ros.core.design.controller import (
-    closed_loop_matrix, closed_loop_poles, controller_transfer_function,
-    diophantine_controller)
+    closed_loop_matrix, closed_loop_poles, controller_state_space, controller_transfer_function,
+    diophantine_controller, UnstableControllerWarning)
 from observer_ros.core.design.feedback import design_feedback
 from observer_ros.core.design.full_order import design_full_order
 from observer_ros.core.design.kalman import design_kalman, design_sampled_kalman
@@ -369,6 +371,51 @@ def test_closed_loop_matrix_is_plant_plus_observer_under_feedback():
         np.testing.assert_allclose(x_hat, x, atol=1e-10)
         np.testing.assert_allclose(x, scipy.linalg.expm((model.a - model.b @ k) * t) @ x0,
                                    atol=1e-10)
+
+
+@pytest.mark.parametrize('dt', [0.0, 0.05])
+@pytest.mark.parametrize('kind', ['full_order', 'reduced_order', 'chen'])
+def test_observer_controller_equals_diophantine(kind, dt):
+    # For one output the controller of a given order is unique given the closed-loop poles:
+    # G_oc from any observer realization equals S / R from A R + B S = A_cl.
+    a = np.array([[0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0],
+                  [-18.75, -34.0, -21.25, -7.0]])
+    b = np.array([[0.0], [2.344], [-7.032], [18.166]])
+    c = np.array([[1.0, 0.0, 0.0, 0.0]])
+    controller_poles = np.array([-1 + 2j, -1 - 2j, -3, -4])
+    observer_poles = np.array([-10.0, -11.0, -12.0, -13.0])
+    if kind != 'full_order':
+        observer_poles = observer_poles[:3]
+    if dt:
+        ad, bd = zero_order_hold(a, b, dt)
+        model = StateSpaceModel.from_matrices(ad, bd, c, dt=dt)
+        controller_poles = np.exp(controller_poles * dt)
+        observer_poles = np.exp(observer_poles * dt)
+    else:
+        model = StateSpaceModel.from_matrices(a, b, c)
+    k = design_feedback(model, poles=controller_poles).gain
+    if kind == 'full_order':
+        design = design_full_order(model, poles=observer_poles)
+    elif kind == 'reduced_order':
+        design = design_reduced_order(model, poles=observer_poles)
+    else:
+        design = design_chen(model, poles=observer_poles)
+    with warnings.catch_warnings():
+        warnings.simplefilter('ignore', UnstableControllerWarning)
+        state_space = controller_transfer_function(model, design.realization, k)
+        polynomial = diophantine_controller(model, controller_poles, observer_poles)
+    assert state_space.den.size == design.order + 1
+    assert state_space.discrete == bool(dt)
+    # The realization itself, evaluated pointwise, is the Diophantine controller ...
+    a_c, b_c, c_c, d_c = controller_state_space(design.realization, k)
+    points = [0.5j, 2.0 + 1.0j, 7.0] if not dt else np.exp(np.array([0.5j, 2.0 + 1.0j]) * dt)
+    for point in points:
+        response = -(c_c @ np.linalg.solve(point * np.eye(design.order) - a_c, b_c) + d_c)
+        expected = np.polyval(polynomial.num, point) / np.polyval(polynomial.den, point)
+        assert complex(response[0, 0]) == pytest.approx(expected, rel=1e-8)
+    # ... and so must be its coefficients (monic denominator, numerator).
+    np.testing.assert_allclose(state_space.den, polynomial.den, rtol=1e-7, atol=1e-9)
+    np.testing.assert_allclose(state_space.num, polynomial.num, rtol=1e-7, atol=1e-9)
 
 
 def test_controller_transfer_function_needs_siso():

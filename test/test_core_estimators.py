@@ -31,6 +31,7 @@ and the plain Ackermann formula on ``(Ad, ...)`` loses about ``cond(O) * eps``, 
 import numpy as np
 import pytest
 import scipy.linalg
+import scipy.optimize
 import scipy.signal
 
 from observer_ros.core.design.chen import design_chen
@@ -512,3 +513,95 @@ def test_cache_evicts_least_recently_used(plant, reduced_design):
     c = estimator.step_matrices(20_000_000)
     assert c is not b
     np.testing.assert_array_equal(c.g, b.g)
+
+
+# --------------------------------------------------------------------------------------
+# Several outputs, dense C, jittered stamps: the step matrices are exact by construction.
+# --------------------------------------------------------------------------------------
+
+def stable_mimo_model(seed):
+    """Return a seeded stable model with 5 states, 2 inputs and 2 outputs (dense C)."""
+    rng = np.random.default_rng(seed)
+    a = rng.standard_normal((5, 5))
+    a -= (np.linalg.eigvals(a).real.max() + 0.5) * np.eye(5)
+    return StateSpaceModel.from_matrices(a, rng.standard_normal((5, 2)),
+                                         rng.standard_normal((2, 5)))
+
+
+MIMO_DESIGNS = {
+    'full_order': lambda model: design_full_order(model, poles=[-3, -4, -5, -6 + 1j, -6 - 1j]),
+    'reduced_order': lambda model: design_reduced_order(model, poles=[-3, -4 + 1j, -4 - 1j]),
+    'chen': lambda model: design_chen(model, poles=[-3, -4 + 1j, -4 - 1j]),
+    'kalman': lambda model: design_kalman(model, np.ones(5), [0.1, 0.2]),
+}
+
+
+@pytest.mark.parametrize('period_ms', [1, 10, 100])
+@pytest.mark.parametrize('kind', sorted(MIMO_DESIGNS))
+def test_mimo_step_matrices_are_exact(kind, period_ms):
+    # x_hat_new = E x_hat + G_u u + G_y y is exact for every x, x_hat and u if and only if
+    # E = (I - G_y C) Ad and G_u = (I - G_y C) Bd; the error then obeys e_new = E e.
+    model = stable_mimo_model(period_ms)
+    design = MIMO_DESIGNS[kind](model)
+    estimator = make_estimator(design, initial_state=np.zeros(5))
+    rng = np.random.default_rng(period_ms + 100)
+    plant = PlantSimulator(model, initial_state=rng.standard_normal(5))
+    estimator.update(0, plant.measure(), np.zeros(2))
+    error = plant.x - estimator.estimate
+    scale = np.linalg.norm(error)
+    if kind in ('reduced_order', 'chen'):
+        np.testing.assert_allclose(model.c @ error, 0.0, atol=1e-12)
+    stamp = 0
+    for _ in range(60):
+        dt_ns = int(period_ms * 1_000_000 * (1.0 + rng.uniform(-0.3, 0.3)))
+        u = rng.standard_normal(2)
+        delta, bd = sampled(model.a, model.b, dt_ns / NS)
+        ad = np.eye(5) + delta
+        previous = error
+        plant.step(u, dt_ns / NS)
+        stamp += dt_ns
+        estimator.update(stamp, plant.measure(), u)
+        g = estimator.last_step.g
+        error_block, input_block, output_block = g[:5, :5], g[:5, 5:7], g[:5, 7:]
+        correction = np.eye(5) - output_block @ model.c
+        np.testing.assert_allclose(error_block, correction @ ad, atol=1e-10)
+        np.testing.assert_allclose(input_block, correction @ bd, atol=1e-10)
+        np.testing.assert_allclose(g[5:], np.hstack([-model.c @ ad, -model.c @ bd, np.eye(2)]),
+                                   atol=1e-12)
+        np.testing.assert_allclose(estimator.innovation, model.c @ ad @ previous,
+                                   atol=1e-9 * scale)
+        error = error_block @ error
+        assert np.linalg.norm(plant.x - estimator.estimate - error) <= EXACT_RTOL * scale
+    dt = dt_ns / NS
+    eigenvalues = np.linalg.eigvals(estimator.last_step.error)
+    if kind == 'kalman':
+        delta = sampled(model.a, model.b, dt)[0]
+        ad = np.eye(5) + delta
+        stationary = scipy.linalg.solve_continuous_lyapunov(model.a, -np.eye(5))
+        qd = stationary - ad @ stationary @ ad.T
+        r = np.diag([0.1, 0.2])
+        p = scipy.linalg.solve_discrete_are(ad.T, model.c.T, 0.5 * (qd + qd.T), r)
+        gain = p @ model.c.T @ np.linalg.inv(model.c @ p @ model.c.T + r)
+        np.testing.assert_allclose(estimator.last_step.g[:5, 7:], gain, rtol=1e-7, atol=1e-12)
+        return
+    wanted = np.exp(np.asarray(design.requested_poles) * dt)
+    if kind != 'full_order':
+        wanted = np.concatenate([wanted, [0.0, 0.0]])
+    rows, cols = scipy.optimize.linear_sum_assignment(
+        np.abs(eigenvalues[:, None] - wanted[None, :]))
+    np.testing.assert_allclose(eigenvalues[rows], wanted[cols], atol=1e-9)
+
+
+def test_estimators_need_zero_feedthrough():
+    rng = np.random.default_rng(0)
+    model = StateSpaceModel.from_matrices(rng.standard_normal((3, 3)) - 3 * np.eye(3),
+                                          np.ones((3, 1)), [[1.0, 0.0, 0.0]], [[0.5]])
+    with pytest.raises(ValueError, match='model.D'):
+        make_estimator(design_full_order(model, poles=[-4, -5, -6]))
+
+
+def test_discrete_given_gain_with_singular_a():
+    model = StateSpaceModel.from_flat(a=[0, 1, 0, 0], b=[0, 1], c=[1, 0], dt=0.1)
+    design = design_full_order(model, gain=[0.5, 0.1])
+    with pytest.raises(ValueError, match='observer.gain'):
+        make_estimator(design)

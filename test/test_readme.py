@@ -15,7 +15,7 @@
 """README stays in step with the code: commands, CI and the parameter schema."""
 
 from conftest import REPOSITORY
-from observer_ros.core.config import PARAMETERS
+from observer_ros.core.config import parameter_table, PARAMETERS
 
 README = (REPOSITORY / 'README.md').read_text(encoding='utf-8')
 
@@ -23,6 +23,12 @@ README = (REPOSITORY / 'README.md').read_text(encoding='utf-8')
 def test_every_parameter_is_documented_with_its_default():
     for spec in PARAMETERS:
         assert f'| `{spec.name}` |' in README, spec.name
+
+
+def test_parameter_table_is_the_generated_one():
+    # Regenerate with: python -c "from observer_ros.core.config import parameter_table as t;
+    # print(t())" and paste it over README's table.
+    assert parameter_table() in README
 
 
 def test_ci_runs_the_readme_test_command():

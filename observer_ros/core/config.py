@@ -23,6 +23,7 @@ effects, so nodes call it to vet run-time parameter changes before applying them
 """
 
 from dataclasses import dataclass, field
+import json
 import math
 from typing import Any, Mapping, Optional
 import warnings
@@ -174,6 +175,17 @@ JOINT_STATE_FIELDS = ('position', 'velocity', 'effort')
 TOPICS = ('y', 'u', 'u_cmd', 'x_hat', 'x_true', 'reference', 'innovation')
 
 PARAMETER_SPECS = {spec.name: spec for spec in PARAMETERS}
+
+
+def parameter_table() -> str:
+    """Return the parameter schema as the Markdown table README shows."""
+    rows = ['| parameter | type | default | run-time | meaning |', '|---|---|---|---|---|']
+    for spec in PARAMETERS:
+        default = json.dumps(spec.default) if not isinstance(spec.default, str) else spec.default
+        rows.append(f'| `{spec.name}` | {spec.kind} | `{default}` | '
+                    f'{"yes" if spec.dynamic else "no"} | {spec.description} |')
+    return '\n'.join(rows) + '\n'
+
 
 #: Parameters every ROS node has, allowed in shared parameter files.
 ROS_PARAMETERS = ('use_sim_time', 'start_type_description_service')

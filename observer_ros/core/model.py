@@ -238,11 +238,25 @@ class StateSpaceModel:
     ) -> 'StateSpaceModel':
         """Build a model from 2-D arrays ``(n, n)``, ``(n, m)``, ``(p, n)``, ``(p, m)``."""
         a = np.atleast_2d(np.asarray(a, dtype=float))
-        b = np.asarray(b, dtype=float)
-        c = np.atleast_2d(np.asarray(c, dtype=float))
+        if a.ndim != 2 or a.shape[0] != a.shape[1]:
+            raise ConfigError('model.A', f'expected a square matrix, got shape {a.shape}')
         n_states = a.shape[0]
-        b = b.reshape(n_states, -1)
-        d_flat = None if d is None else np.asarray(d, dtype=float).ravel()
+        b = np.asarray(b, dtype=float)
+        if b.ndim == 1 and b.size == n_states:
+            b = b.reshape(n_states, 1)  # one input given as a flat vector
+        if b.ndim != 2 or b.shape[0] != n_states:
+            raise ConfigError('model.B', f'expected an {n_states} x m matrix, got shape {b.shape}')
+        c = np.atleast_2d(np.asarray(c, dtype=float))
+        if c.ndim != 2 or c.shape[1] != n_states:
+            raise ConfigError('model.C', f'expected a p x {n_states} matrix, got shape {c.shape}')
+        d_flat = None
+        if d is not None:
+            d = np.atleast_2d(np.asarray(d, dtype=float))
+            expected = (c.shape[0], b.shape[1])
+            if d.shape != expected:
+                raise ConfigError('model.D', f'expected a {expected[0]} x {expected[1]} matrix, '
+                                  f'got shape {d.shape}')
+            d_flat = d.ravel()
         return cls.from_flat(a.ravel(), b.ravel(), c.ravel(), d_flat, dt, **names)
 
     def transformed(self, transform: np.ndarray) -> 'StateSpaceModel':

@@ -250,7 +250,10 @@ def _validate_problem(a, b, poles, method):
         raise ConfigError('A', f'expected a square matrix, got shape {a.shape}')
     if b.ndim != 2 or b.shape[0] != a.shape[0]:
         raise ConfigError('B', f'expected {a.shape[0]} rows, got shape {b.shape}')
-    poles = clean_poles(np.atleast_1d(np.asarray(poles, dtype=complex)))
+    poles = np.atleast_1d(np.asarray(poles, dtype=complex))
+    if not np.all(np.isfinite(poles)):
+        raise ConfigError('poles', f'expected finite values, got {poles.tolist()}')
+    poles = clean_poles(poles)
     if poles.size != a.shape[0]:
         raise ConfigError(
             'poles', f'expected {a.shape[0]} poles (one per state), got {poles.size}')

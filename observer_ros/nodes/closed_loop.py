@@ -41,21 +41,36 @@ from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.recorder import TopicRecorder
 
 
+#: Topics recorded by ``--report`` (and by tests).
+RECORDED_TOPICS = ('y', 'u', 'u_cmd', 'x_true', 'x_hat')
+
+
 class ClosedLoop:
     """The three nodes (and an optional recorder) on one executor."""
 
-    def __init__(self, record: bool = False, executor=None) -> None:
-        self.plant = PlantSimulatorNode()
-        sim_time = [Parameter('use_sim_time', value=True)] if self.plant.lockstep else []
-        self.observer = ObserverNode(parameter_overrides=sim_time)
-        self.feedback = StateFeedbackNode(parameter_overrides=sim_time)
-        self.nodes = [self.plant, self.observer, self.feedback]
-        self.recorder = None
-        if record:
-            self.recorder = TopicRecorder(self.plant.system,
-                                          ('y', 'u', 'u_cmd', 'x_true', 'x_hat'))
-            self.nodes.append(self.recorder)
-        self.executor = executor or SingleThreadedExecutor()
+    def __init__(self, record: bool = False, executor=None, context=None,
+                 overrides=()) -> None:
+        self.nodes = []
+        try:
+            self.plant = PlantSimulatorNode(context=context, parameter_overrides=list(overrides))
+            self.nodes.append(self.plant)
+            sim_time = [Parameter('use_sim_time', value=True)] if self.plant.lockstep else []
+            self.observer = ObserverNode(context=context,
+                                         parameter_overrides=list(overrides) + sim_time)
+            self.nodes.append(self.observer)
+            self.feedback = StateFeedbackNode(context=context,
+                                              parameter_overrides=list(overrides) + sim_time)
+            self.nodes.append(self.feedback)
+            self.recorder = None
+            if record:
+                self.recorder = TopicRecorder(self.plant.system, RECORDED_TOPICS,
+                                              context=context)
+                self.nodes.append(self.recorder)
+        except Exception:
+            for node in self.nodes:
+                node.destroy_node()
+            raise
+        self.executor = executor or SingleThreadedExecutor(context=context)
         for node in self.nodes:
             self.executor.add_node(node)
 
@@ -68,10 +83,11 @@ class ClosedLoop:
         return False
 
     def destroy(self) -> None:
-        """Destroy every node."""
+        """Destroy every node and the executor."""
         for node in self.nodes:
             self.executor.remove_node(node)
             node.destroy_node()
+        self.executor.shutdown()
 
     def report(self, directory: str) -> str:
         """Error table of ``x_hat`` against ``x_true``; writes the PNG plot into ``directory``."""

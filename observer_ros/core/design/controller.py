@@ -126,6 +126,31 @@ def controller_state_space(realization: ObserverRealization, feedback_gain: np.n
     return a_c, b_c, c_c, d_c
 
 
+def _numerator(a, b, c, d, den) -> np.ndarray:
+    """
+    Numerator of ``c (sI - a)^-1 b + d`` with denominator ``den``, by interpolation.
+
+    ``N(s) = G(s) den(s)`` is sampled at ``order + 1`` points on a circle through the poles'
+    magnitude and its coefficients read off with one FFT. Unlike ``ss2tf`` (the roots of
+    ``a - b c``), this stays accurate for the ill-conditioned bases that Chen's and the
+    reduced-order designs produce: each sample is a well-posed linear solve.
+    """
+    order = a.shape[0]
+    if order == 0:
+        return np.atleast_1d(d[0, 0])
+    magnitudes = np.abs(np.linalg.eigvals(a))
+    magnitudes = magnitudes[magnitudes > 0]
+    radius = float(np.exp(np.log(magnitudes).mean())) if magnitudes.size else 1.0
+    count = order + 1
+    points = radius * np.exp(2j * np.pi * np.arange(count) / count)
+    identity = np.eye(order)
+    values = np.array([
+        (c @ np.linalg.solve(point * identity - a, b) + d)[0, 0] * np.polyval(den, point)
+        for point in points])
+    ascending = (np.fft.fft(values) / count).real / radius ** np.arange(count)
+    return ascending[::-1]
+
+
 def _transfer_function(num, den, discrete) -> ControllerTransferFunction:
     num = np.atleast_1d(np.real(np.squeeze(num)))
     den = np.atleast_1d(np.real(np.squeeze(den)))
@@ -161,7 +186,8 @@ def controller_transfer_function(model: StateSpaceModel, realization: ObserverRe
             f'G_oc is computed for single-input single-output plants; this one has '
             f'{model.n_inputs} inputs and {model.n_outputs} outputs')
     a_c, b_c, c_c, d_c = controller_state_space(realization, feedback_gain)
-    num, den = scipy.signal.ss2tf(a_c, b_c, -c_c, -d_c)
+    den = np.poly(a_c) if a_c.size else np.ones(1)
+    num = _numerator(a_c, b_c, -c_c, -d_c, den)
     result = _transfer_function(num, den, model.is_discrete)
     if result.unstable:
         warnings.warn(

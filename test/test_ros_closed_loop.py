@@ -1,0 +1,125 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The one-process closed loop over DDS, in lockstep, for every shipped config with feedback.
+
+Checks that ``x_hat`` converges to ``x_true`` at the designed rate, that the loop is stable,
+that the node's estimates equal the core estimator run offline on the same samples bit for
+bit, that lockstep runs repeat exactly, and that a step reference is tracked.
+"""
+
+import numpy as np
+import pytest
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+
+from conftest import CONFIG_DIR
+from observer_ros.core.evaluation import align, decay_rate, settling_time
+from observer_ros.nodes.closed_loop import ClosedLoop
+from ros_support import offline_estimates, overrides, ros_context, spin_until
+
+CLOSED_LOOP_CONFIGS = ['seed001_third_order.yaml', 'seed001_third_order_chen.yaml',
+                       'seed001_fourth_order_chen.yaml', 'seed003_full_order.yaml',
+                       'kalman_noisy.yaml']
+
+
+def run_lockstep(config, samples, extra=(), reference=None):
+    """Run the closed loop in lockstep; return (system, recorder arrays, plant counters)."""
+    with ros_context('--params-file', str(CONFIG_DIR / config)) as context:
+        loop = ClosedLoop(record=True, context=context, overrides=overrides(
+            plant__lockstep=True, plant__samples=samples) + list(extra))
+        helper = None
+        try:
+            if reference is not None:
+                helper = Node('reference_publisher', context=context)
+                publisher = helper.create_publisher(JointState, 'reference', 10)
+                names = list(loop.plant.system.model.output_names)
+                helper.create_timer(0.01, lambda: publisher.publish(
+                    JointState(name=names, position=list(reference))))
+                loop.executor.add_node(helper)
+                assert spin_until(loop.executor, lambda: loop.feedback.reference is not None,
+                                  10.0), 'the reference never reached state_feedback'
+            assert loop.spin(timeout_sec=60.0), 'the lockstep run did not finish'
+            recorder = loop.recorder
+            result = {topic: recorder.arrays(topic) for topic in ('y', 'u', 'x_true', 'x_hat')}
+            return loop.observer.system, recorder, result, dict(loop.plant.counters)
+        finally:
+            if helper is not None:
+                loop.executor.remove_node(helper)
+                helper.destroy_node()
+            loop.destroy()
+
+
+@pytest.mark.parametrize('config', CLOSED_LOOP_CONFIGS)
+def test_estimate_converges_at_the_designed_rate_and_loop_is_stable(config):
+    system, recorder, arrays, counters = run_lockstep(config, samples=400)
+    assert counters['samples'] == 400
+    assert counters.get('lockstep_timeouts', 0) == 0
+    assert counters['commands_on_time'] == 399
+    stamps, truth, estimate = align(*arrays['x_true'], *arrays['x_hat'])
+    assert len(stamps) == 400
+    times = (stamps - stamps[0]) / 1e9
+    error = np.linalg.norm(truth - estimate, axis=1)
+    poles = system.observer.achieved_poles
+    rate = decay_rate(poles, system.model.dt)
+    settle = settling_time(poles, system.model.dt)
+    if system.observer.kind == 'kalman':
+        # Noisy plant: the error settles at the filter's noise floor.
+        floor = np.sqrt(np.trace(system.make_estimator().design.step(
+            system.plant.period_ns).covariance))
+        late = error[times > settle]
+        assert np.sqrt(np.mean(late ** 2)) < 2.0 * floor
+    else:
+        window = (times >= settle) & (error > 1e-9 * error[0])
+        t1, t2 = times[window][0], times[window][-1]
+        e1, e2 = error[window][0], error[window][-1]
+        measured = np.log(e1 / e2) / (t2 - t1)
+        assert measured >= 0.7 * rate, (measured, rate)
+        assert error[-1] < 1e-6 * max(error[0], 1e-3)
+    # The loop is stable: after its transient the state decays (to the noise level for the
+    # noisy plant).
+    norms = np.linalg.norm(truth, axis=1)
+    assert norms[-40:].max() < 0.25 * norms.max()
+    assert np.all(system.closed_loop_poles.real < 0)
+    # The node computed exactly what the core computes from the same samples.
+    offline_stamps, offline = offline_estimates(system, recorder)
+    assert np.array_equal(offline_stamps, arrays['x_hat'][0])
+    assert np.array_equal(offline, arrays['x_hat'][1])
+
+
+def test_lockstep_runs_are_bit_identical():
+    first = run_lockstep('kalman_noisy.yaml', samples=150)[2]
+    second = run_lockstep('kalman_noisy.yaml', samples=150)[2]
+    for topic in ('y', 'u', 'x_true', 'x_hat'):
+        assert np.array_equal(first[topic][0], second[topic][0]), topic
+        assert np.array_equal(first[topic][1], second[topic][1]), topic
+
+
+def test_step_reference_is_tracked_with_the_reference_gain():
+    system, _, arrays, _ = run_lockstep('seed001_third_order.yaml', samples=800,
+                                        reference=[1.0])
+    assert system.feedback.reference_gain is not None
+    y = arrays['y'][1][:, 0]
+    assert abs(y[-1] - 1.0) < 1e-2
+    assert np.abs(y[-50:] - 1.0).max() < 2e-2
+
+
+def test_ros2_control_style_float64_command_topic():
+    extra = overrides(topics__u_cmd__type='float64_multi_array')
+    system, _, arrays, counters = run_lockstep('seed003_full_order.yaml', samples=300,
+                                               extra=extra)
+    assert counters.get('lockstep_timeouts', 0) == 0
+    truth = arrays['x_true'][1]
+    assert np.linalg.norm(truth[-1]) < 0.05 * np.linalg.norm(truth[0])

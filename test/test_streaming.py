@@ -1,0 +1,142 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""Pairing inputs with measurements by stamp, and bad stamps, without ROS."""
+
+import numpy as np
+import pytest
+
+from observer_ros.core.design.full_order import design_full_order
+from observer_ros.core.estimators import make_estimator
+from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.simulation import PlantSimulator
+from observer_ros.core.streaming import StreamEstimator
+
+PERIOD_NS = 10_000_000
+SECOND_NS = 1_000_000_000
+
+
+def double_integrator():
+    model = StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    return model, design_full_order(model, poles=[-4, -5])
+
+
+def simulated(count, inputs):
+    model, _ = double_integrator()
+    plant = PlantSimulator(model, [1.0, -0.5])
+    ys = []
+    for k in range(count):
+        ys.append(plant.measure())
+        plant.step(inputs[k], PERIOD_NS / 1e9)
+    return np.array(ys)
+
+
+def stream(max_gap=SECOND_NS, stamped=True):
+    _, design = double_integrator()
+    return StreamEstimator(make_estimator(design), max_gap, stamped)
+
+
+def reference_estimates(ys, inputs):
+    _, design = double_integrator()
+    estimator = make_estimator(design)
+    out = []
+    for k, y in enumerate(ys):
+        u = inputs[k - 1] if k else np.zeros(1)
+        out.append(estimator.update(SECOND_NS + k * PERIOD_NS, y, u).copy())
+    return np.array(out)
+
+
+def test_input_of_the_interval_is_the_one_stamped_at_the_previous_sample():
+    inputs = np.sin(np.arange(50))[:, None]
+    ys = simulated(50, inputs)
+    expected = reference_estimates(ys, inputs)
+    s = stream()
+    got = []
+    for k in range(50):
+        stamp = SECOND_NS + k * PERIOD_NS
+        got += s.add_input(stamp, inputs[k])  # the plant publishes u_k with y_k
+        got += s.add_measurement(stamp, ys[k])
+    assert np.array_equal(np.array([g.estimate for g in got]), expected)
+    assert s.counters['estimates'] == 50 and s.pending == 0
+
+
+def test_a_future_input_never_leaks_into_the_past_and_late_inputs_release_waiting_samples():
+    inputs = np.linspace(-1, 1, 20)[:, None]
+    ys = simulated(20, inputs)
+    expected = reference_estimates(ys, inputs)
+    s = stream()
+    got = s.add_input(SECOND_NS, inputs[0]) + s.add_measurement(SECOND_NS, ys[0])
+    for k in range(1, 20):
+        stamp = SECOND_NS + k * PERIOD_NS
+        got += s.add_measurement(stamp, ys[k])   # y_k before u_k: its interval needs u_(k-1)
+        got += s.add_input(stamp, inputs[k])
+    assert np.array_equal(np.array([g.estimate for g in got]), expected)
+
+
+def test_measurement_waits_for_its_input_then_flush_uses_the_latest_earlier_one():
+    s = stream()
+    t = [SECOND_NS + k * PERIOD_NS for k in range(4)]
+    assert len(s.add_input(t[0], [1.0]) + s.add_measurement(t[0], [1.0])) == 1
+    assert len(s.add_measurement(t[1], [1.0])) == 1   # its input (stamped t0) is here
+    assert s.add_measurement(t[2], [1.0]) == []       # needs the input stamped t1
+    assert s.add_measurement(t[3], [1.0]) == []
+    assert s.pending == 2
+    released = s.add_input(t[1], [3.0])
+    assert [r.stamp_ns for r in released] == [t[2]]    # t3 still needs the input of t2
+    assert s.pending == 1
+    flushed = s.flush()
+    assert [r.stamp_ns for r in flushed] == [t[3]]
+    assert s.counters['late_input'] == 1
+
+
+def test_unstamped_inputs_never_make_measurements_wait():
+    s = stream(stamped=False)
+    s.add_measurement(SECOND_NS, [0.0])
+    assert len(s.add_measurement(SECOND_NS + PERIOD_NS, [0.0])) == 1
+
+
+@pytest.mark.parametrize('offset,counter', [(0, 'duplicate'), (-PERIOD_NS, 'out_of_order')])
+def test_duplicate_and_out_of_order_measurements_are_dropped(offset, counter):
+    s = stream(stamped=False)
+    for k in range(3):
+        s.add_measurement(SECOND_NS + k * PERIOD_NS, [1.0])
+    before = s.estimator.estimate
+    assert s.add_measurement(SECOND_NS + 2 * PERIOD_NS + offset, [50.0]) == []
+    assert s.counters[counter] == 1
+    assert np.array_equal(s.estimator.estimate, before)
+    assert s.events and s.events[-1][0] == counter
+
+
+@pytest.mark.parametrize('jump,counter', [(-5 * SECOND_NS, 'restart_backward_jump'),
+                                          (5 * SECOND_NS, 'restart_gap')])
+def test_long_jumps_restart_from_the_current_estimate(jump, counter):
+    s = stream(stamped=False)
+    for k in range(5):
+        s.add_measurement(10 * SECOND_NS + k * PERIOD_NS, [1.0])
+    before = s.estimator.estimate
+    out = s.add_measurement(10 * SECOND_NS + 4 * PERIOD_NS + jump, [1.0])
+    assert len(out) == 1 and s.counters[counter] == 1
+    assert np.all(np.isfinite(out[0].estimate))
+    np.testing.assert_array_equal(out[0].estimate, before)  # full order: restart keeps x_hat
+    nxt = s.add_measurement(10 * SECOND_NS + 5 * PERIOD_NS + jump, [1.0])
+    assert len(nxt) == 1
+
+
+def test_reset_returns_to_the_initial_state():
+    s = stream(stamped=False)
+    for k in range(5):
+        s.add_measurement(SECOND_NS + k * PERIOD_NS, [2.0])
+    s.reset()
+    out = s.add_measurement(2 * SECOND_NS, [2.0])
+    np.testing.assert_array_equal(out[0].estimate, [0.0, 0.0])
