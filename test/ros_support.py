@@ -24,9 +24,13 @@ import time
 import numpy as np
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
 from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
 
+from conftest import CONFIG_DIR
 from observer_ros.core.streaming import StreamEstimator
+from observer_ros.nodes.closed_loop import ClosedLoop
 
 
 @contextmanager
@@ -106,3 +110,30 @@ def offline_estimates(system, recorder):
     samples += stream.flush()
     return (np.array([s.stamp_ns for s in samples], dtype=np.int64),
             np.array([s.estimate for s in samples]))
+
+
+def run_lockstep(config, samples, extra=(), reference=None):
+    """Run the closed loop in lockstep; return (system, recorder arrays, plant counters)."""
+    with ros_context('--params-file', str(CONFIG_DIR / config)) as context:
+        loop = ClosedLoop(record=True, context=context, overrides=overrides(
+            plant__lockstep=True, plant__samples=samples) + list(extra))
+        helper = None
+        try:
+            if reference is not None:
+                helper = Node('reference_publisher', context=context)
+                publisher = helper.create_publisher(JointState, 'reference', 10)
+                names = list(loop.plant.system.model.output_names)
+                helper.create_timer(0.01, lambda: publisher.publish(
+                    JointState(name=names, position=list(reference))))
+                loop.executor.add_node(helper)
+                assert spin_until(loop.executor, lambda: loop.feedback.reference is not None,
+                                  10.0), 'the reference never reached state_feedback'
+            assert loop.spin(timeout_sec=60.0), 'the lockstep run did not finish'
+            recorder = loop.recorder
+            result = {topic: recorder.arrays(topic) for topic in ('y', 'u', 'x_true', 'x_hat')}
+            return loop.observer.system, recorder, result, dict(loop.plant.counters)
+        finally:
+            if helper is not None:
+                loop.executor.remove_node(helper)
+                helper.destroy_node()
+            loop.destroy()

@@ -22,44 +22,13 @@ bit, that lockstep runs repeat exactly, and that a step reference is tracked.
 
 import numpy as np
 import pytest
-from rclpy.node import Node
-from sensor_msgs.msg import JointState
 
-from conftest import CONFIG_DIR
 from observer_ros.core.evaluation import align, decay_rate, settling_time
-from observer_ros.nodes.closed_loop import ClosedLoop
-from ros_support import offline_estimates, overrides, ros_context, spin_until
+from ros_support import offline_estimates, overrides, run_lockstep
 
 CLOSED_LOOP_CONFIGS = ['seed001_third_order.yaml', 'seed001_third_order_chen.yaml',
                        'seed001_fourth_order_chen.yaml', 'seed003_full_order.yaml',
                        'kalman_noisy.yaml']
-
-
-def run_lockstep(config, samples, extra=(), reference=None):
-    """Run the closed loop in lockstep; return (system, recorder arrays, plant counters)."""
-    with ros_context('--params-file', str(CONFIG_DIR / config)) as context:
-        loop = ClosedLoop(record=True, context=context, overrides=overrides(
-            plant__lockstep=True, plant__samples=samples) + list(extra))
-        helper = None
-        try:
-            if reference is not None:
-                helper = Node('reference_publisher', context=context)
-                publisher = helper.create_publisher(JointState, 'reference', 10)
-                names = list(loop.plant.system.model.output_names)
-                helper.create_timer(0.01, lambda: publisher.publish(
-                    JointState(name=names, position=list(reference))))
-                loop.executor.add_node(helper)
-                assert spin_until(loop.executor, lambda: loop.feedback.reference is not None,
-                                  10.0), 'the reference never reached state_feedback'
-            assert loop.spin(timeout_sec=60.0), 'the lockstep run did not finish'
-            recorder = loop.recorder
-            result = {topic: recorder.arrays(topic) for topic in ('y', 'u', 'x_true', 'x_hat')}
-            return loop.observer.system, recorder, result, dict(loop.plant.counters)
-        finally:
-            if helper is not None:
-                loop.executor.remove_node(helper)
-                helper.destroy_node()
-            loop.destroy()
 
 
 @pytest.mark.parametrize('config', CLOSED_LOOP_CONFIGS)

@@ -148,6 +148,9 @@ PARAMETERS = (
     ParameterSpec('plant.lockstep_timeout', DOUBLE, 1.0,
                   'Lockstep: wall-clock seconds to wait for the command before advancing '
                   'with the last one (with a warning).'),
+    ParameterSpec('plant.lockstep_subscribers', INTEGER, 1,
+                  'Lockstep: subscribers on y (the observer plus any recorder) to wait for '
+                  'before the first sample.'),
     ParameterSpec('plant.samples', INTEGER, 0,
                   'Number of samples to simulate, then stop; 0 runs until shut down.'),
     ParameterSpec('observer.input_wait', DOUBLE, 0.05,
@@ -533,6 +536,9 @@ def _check_topics(params: dict) -> None:
     for name in ('observer.input_wait', 'observer.max_gap', 'plant.lockstep_timeout'):
         if params[name] < 0.0 or (name != 'observer.input_wait' and params[name] == 0.0):
             raise ConfigError(name, f'expected a positive time in seconds, got {params[name]}')
+    if params['plant.lockstep_subscribers'] < 1:
+        raise ConfigError('plant.lockstep_subscribers',
+                          f'expected >= 1, got {params["plant.lockstep_subscribers"]}')
     if params['plant.samples'] < 0:
         raise ConfigError('plant.samples', f'expected >= 0, got {params["plant.samples"]}')
 

@@ -64,6 +64,7 @@ class PlantSimulatorNode(ConfiguredNode):
         self.samples = params['plant.samples']
         self.lockstep = params['plant.lockstep']
         self.lockstep_timeout = params['plant.lockstep_timeout']
+        self.lockstep_subscribers = params['plant.lockstep_subscribers']
         self.codecs = {topic: VectorCodec.for_topic(system, topic)
                        for topic in ('y', 'u', 'x_true', 'u_cmd')}
         self.publishers_ = {topic: self.create_publisher(
@@ -138,7 +139,8 @@ class PlantSimulatorNode(ConfiguredNode):
         self.index += 1
 
     def _try_start(self) -> None:
-        ready = (self.count_subscribers(self.publishers_['y'].topic_name) > 0
+        ready = (self.count_subscribers(self.publishers_['y'].topic_name)
+                 >= self.lockstep_subscribers
                  and self.count_publishers(self.resolve_topic_name('u_cmd')) > 0)
         now = Clock(clock_type=ClockType.STEADY_TIME).now().nanoseconds
         if not ready:
