@@ -25,8 +25,10 @@ import numpy as np
 import pytest
 from rclpy.node import Node
 from rclpy.parameter_client import AsyncParameterClient
+from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
+from std_srvs.srv import Trigger
 
 from conftest import CONFIG_DIR
 from observer_ros.core.config import load_parameter_file, validate_parameters
@@ -295,3 +297,26 @@ def test_observer_remapped_to_joint_states_with_extra_joints():
     stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in driver.estimates]
     assert stamps == [stamp for stamp, _, _ in samples]
     assert list(driver.estimates[0].name) == ['x1', 'x2']
+
+
+def test_best_effort_publisher_and_reset_service(observer_setup):
+    system, observer, driver, executor = observer_setup
+    sensor = driver.node.create_publisher(JointState, 'y', qos_profile_sensor_data)
+    samples = plant_samples(system, 6)
+    for index, (stamp, u, y) in enumerate(samples[:3]):
+        driver.u.publish(joint_state(stamp, ['u1'], u))
+        sensor.publish(joint_state(stamp, ['y1'], y))
+        assert spin_until(executor, lambda: len(driver.estimates) > index, 5.0)
+    client = driver.node.create_client(Trigger, '/observer/reset')
+    assert client.wait_for_service(timeout_sec=5.0)
+    future = client.call_async(Trigger.Request())
+    executor.spin_until_future_complete(future, timeout_sec=5.0)
+    assert future.result().success
+    assert observer.counters()['resets'] == 1
+    # After the reset the estimator starts again from observer.initial_state at the next
+    # sample, exactly as a fresh one does.
+    fresh = system.make_estimator()
+    stamp, u, y = samples[3]
+    send(driver, executor, stamp, u, y, 4)
+    expected = fresh.update(stamp, y, u)
+    assert np.array_equal(np.array(driver.estimates[-1].position), expected)

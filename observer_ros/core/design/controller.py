@@ -276,7 +276,20 @@ def closed_loop_matrix(model: StateSpaceModel, realization: ObserverRealization,
     return np.vstack([top, bottom])
 
 
+#: Relative imaginary part below which a computed pole pair is a split real double pole.
+SPLIT_RTOL = 1e-7
+
+
 def closed_loop_poles(model: StateSpaceModel, realization: ObserverRealization,
                       feedback_gain: np.ndarray) -> np.ndarray:
-    """Sorted eigenvalues of :func:`closed_loop_matrix`."""
-    return sort_poles(scipy.linalg.eigvals(closed_loop_matrix(model, realization, feedback_gain)))
+    """
+    Sorted eigenvalues of :func:`closed_loop_matrix`.
+
+    A repeated real pole comes out of ``eig`` as a pair split by about ``sqrt(eps)``, often
+    into the complex plane; pairs whose imaginary part is below ``SPLIT_RTOL`` of their
+    magnitude are reported as the real double pole they are.
+    """
+    poles = scipy.linalg.eigvals(closed_loop_matrix(model, realization, feedback_gain))
+    split = np.abs(poles.imag) <= SPLIT_RTOL * np.maximum(1.0, np.abs(poles))
+    poles = np.where(split, poles.real + 0j, poles)
+    return sort_poles(poles)
