@@ -84,3 +84,13 @@ def test_installed_executable_runs_from_the_install_tree(colcon_install):
         [sys.executable, '-c', 'import observer_ros; print(observer_ros.__file__)'],
         capture_output=True, text=True, env=env, cwd=str(colcon_install))
     assert str(site) in where.stdout
+
+
+def test_every_module_is_installed(colcon_install):
+    # A directory without __init__.py is skipped by find_packages: its modules would then
+    # import from the source tree in development and be missing from a real install.
+    site = next(colcon_install.glob('lib/python3*/site-packages'))
+    source = {path.relative_to(REPOSITORY) for path in (REPOSITORY / 'observer_ros').rglob('*.py')
+              if '__pycache__' not in path.parts}
+    installed = {path.relative_to(site) for path in (site / 'observer_ros').rglob('*.py')}
+    assert source - installed == set()

@@ -140,3 +140,58 @@ def test_reset_returns_to_the_initial_state():
     s.reset()
     out = s.add_measurement(2 * SECOND_NS, [2.0])
     np.testing.assert_array_equal(out[0].estimate, [0.0, 0.0])
+
+
+@pytest.mark.parametrize('looping', [False, True])
+@pytest.mark.parametrize('seed', range(4))
+def test_batch_replay_equals_the_live_stream_bit_for_bit(seed, looping):
+    # Messy recorded streams: jitter, duplicates, out-of-order samples, a long gap, a
+    # backward jump, inputs at other stamps than the measurements, NaN rows.
+    rng = np.random.default_rng(seed)
+    count = 300
+    stamps = SECOND_NS + np.cumsum(rng.integers(5, 15, size=count) * 1_000_000)
+    stamps[100] = stamps[99]                        # duplicate
+    stamps[150] = stamps[148] - 1_000_000           # out of order
+    stamps[200:] += 3 * SECOND_NS                   # gap
+    if looping:
+        stamps[250:] -= 10 * SECOND_NS              # backward jump (a looping bag)
+    outputs = rng.standard_normal((count, 1))
+    outputs[50] = np.nan
+    # Arrival order is recording order: u_k, then y_k, then (every third sample) an extra
+    # input stamped 2 ms later.
+    events = []
+    for k in range(count):
+        events.append((int(stamps[k]), 0, rng.standard_normal(1)))
+        events.append((int(stamps[k]), 1, outputs[k]))
+        if k % 3 == 0:
+            events.append((int(stamps[k]) + 2_000_000, 0, rng.standard_normal(1)))
+    events[40] = (events[40][0], events[40][1], np.array([np.inf]))
+    live = stream()
+    samples = []
+    for stamp, kind, vector in events:
+        if not np.all(np.isfinite(vector)):
+            continue  # the node drops malformed messages before the stream sees them
+        samples += (live.add_input if kind == 0 else live.add_measurement)(stamp, vector)
+    samples += live.flush()
+    batch = stream()
+    input_stamps = [stamp for stamp, kind, _ in events if kind == 0]
+    inputs = np.array([vector for _, kind, vector in events if kind == 0])
+    if looping:
+        with pytest.raises(ValueError, match='arrival'):
+            stream().replay(input_stamps, inputs, stamps, outputs)
+        input_arrivals = [position for position, event in enumerate(events) if event[1] == 0]
+        arrivals = [position for position, event in enumerate(events) if event[1] == 1]
+        result = batch.replay(input_stamps, inputs, stamps, outputs, input_arrivals, arrivals)
+    else:
+        result = batch.replay(input_stamps, inputs, stamps, outputs)
+    assert np.array_equal(result.stamps_ns, [s.stamp_ns for s in samples])
+
+    assert np.array_equal(result.estimates, np.array([s.estimate for s in samples]))
+    assert np.array_equal(result.innovations, np.array([s.innovation for s in samples]))
+    assert np.all(np.isfinite(result.estimates))
+    assert batch.counters['malformed'] == 2
+    assert live.counters['out_of_order'] == 1 and live.counters['restart_gap'] == 1
+    assert live.counters['restart_backward_jump'] == int(looping)
+    for key in ('duplicate', 'out_of_order', 'restart_gap', 'restart_backward_jump',
+                'estimates'):
+        assert batch.counters[key] == live.counters[key], key

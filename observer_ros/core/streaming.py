@@ -50,6 +50,15 @@ class EstimateSample:
     covariance: Optional[np.ndarray]
 
 
+@dataclass(frozen=True)
+class ReplayArrays:
+    """Estimates of a batch replay: stamps ``(k,)``, ``x_hat`` ``(k, n)``, innovations."""
+
+    stamps_ns: np.ndarray
+    estimates: np.ndarray
+    innovations: np.ndarray
+
+
 class StreamEstimator:
     """
     Pair stamped inputs with stamped measurements and run the estimator.
@@ -107,7 +116,9 @@ class StreamEstimator:
         else:
             self._input_stamps.insert(index, stamp_ns)
             self._inputs.insert(index, vector)
-        self._prune()
+        previous = self.estimator.stamp_ns
+        if previous is None or stamp_ns >= previous - self.max_gap_ns:
+            self._prune()  # not while a backward jump (a looping bag) is under way
         return self._release(force=False)
 
     def add_measurement(self, stamp_ns: int, y) -> list:
@@ -158,28 +169,141 @@ class StreamEstimator:
 
     def _process(self, stamp: int, y: np.ndarray, u: np.ndarray,
                  previous: Optional[int]) -> Optional[EstimateSample]:
-        if previous is not None:
-            step = stamp - previous
-            if step == 0:
-                self.counters['duplicate'] += 1
-                self.events.append(('duplicate', f'dropped a measurement with a repeated '
-                                    f'stamp ({stamp} ns)'))
-                return None
-            if -self.max_gap_ns <= step < 0:
-                self.counters['out_of_order'] += 1
-                self.events.append(('out_of_order', f'dropped a measurement older than the '
-                                    f'previous one ({stamp} < {previous} ns)'))
-                return None
-            if step < 0 or step > self.max_gap_ns:
-                kind = 'restart_backward_jump' if step < 0 else 'restart_gap'
-                self.counters[kind] += 1
-                self.events.append((kind, f'time jumped by {step / 1e9:.3f} s; the estimator '
-                                    f'restarts from this sample'))
-                self.estimator.restart()
+        if not self._admit(stamp, previous):
+            return None
         estimate = self.estimator.update(stamp, y, u)
         self.counters['estimates'] += 1
         return EstimateSample(stamp, estimate, self.estimator.innovation,
                               self.estimator.covariance)
+
+    def _admit(self, stamp: int, previous: Optional[int]) -> bool:
+        """Apply the stamp rules to a measurement; False when it is dropped."""
+        if previous is None:
+            return True
+        step = stamp - previous
+        if step == 0:
+            self.counters['duplicate'] += 1
+            self.events.append(('duplicate', f'dropped a measurement with a repeated '
+                                f'stamp ({stamp} ns)'))
+            return False
+        if -self.max_gap_ns <= step < 0:
+            self.counters['out_of_order'] += 1
+            self.events.append(('out_of_order', f'dropped a measurement older than the '
+                                f'previous one ({stamp} < {previous} ns)'))
+            return False
+        if step < 0 or step > self.max_gap_ns:
+            kind = 'restart_backward_jump' if step < 0 else 'restart_gap'
+            self.counters[kind] += 1
+            if step < 0:  # inputs of the abandoned timeline must not pair with the new one
+                keep = bisect.bisect_right(self._input_stamps, stamp)
+                del self._input_stamps[keep:]
+                del self._inputs[keep:]
+            self.events.append((kind, f'time jumped by {step / 1e9:.3f} s; the estimator '
+                                f'restarts from this sample'))
+            self.estimator.restart()
+        return True
+
+    def replay(self, input_stamps, inputs, stamps, outputs, input_arrivals=None,
+               arrivals=None) -> 'ReplayArrays':
+        """
+        Run over whole recorded streams at once, as if every input had arrived in time.
+
+        Gives what the node computes from the same messages when no input arrives later than
+        the measurement after it (a recording played back): the same pairing and stamp
+        rules, and :meth:`Estimator.advance` for the arithmetic, so the estimates are equal
+        bit for bit. Rows with a non-finite value are dropped and counted as ``malformed``.
+
+        Parameters
+        ----------
+        input_stamps : array_like of int, shape (k,)
+            Input stamps in arrival order (equal stamps: the later one wins, as live).
+        inputs : array_like, shape (k, m)
+        stamps : array_like of int, shape (samples,)
+            Measurement stamps in arrival order.
+        outputs : array_like, shape (samples, p)
+        input_arrivals, arrivals : array_like of int, optional
+            Arrival (log) times. A recording with a backward jump (a looping bag) is then
+            fed message by message in arrival order, as live; without them it is refused.
+
+        Raises
+        ------
+        ValueError
+            Lengths differ, or a backward jump without arrival times.
+
+        """
+        estimator = self.estimator
+        n_outputs, n_inputs = estimator.n_outputs, estimator.n_inputs
+        outputs = np.ascontiguousarray(outputs, dtype=float).reshape(-1, n_outputs)
+        inputs = np.ascontiguousarray(inputs, dtype=float).reshape(-1, n_inputs)
+        stamps = np.asarray(stamps, dtype=np.int64)
+        input_stamps = np.asarray(input_stamps, dtype=np.int64)
+        if len(stamps) != len(outputs) or len(input_stamps) != len(inputs):
+            raise ValueError('replay: stamps and values differ in length')
+        good_inputs = np.isfinite(inputs).all(axis=1)
+        good = np.isfinite(outputs).all(axis=1)
+        jump = -self.max_gap_ns
+        if (np.diff(stamps[good]) < jump).any() or (np.diff(input_stamps[good_inputs]) <
+                                                     jump).any():
+            if arrivals is None or input_arrivals is None:
+                raise ValueError('replay: the stamps jump backwards (a looping recording); '
+                                 'give the arrival times to replay it message by message')
+            return self._replay_in_arrival_order(
+                input_stamps, inputs, stamps, outputs, input_arrivals, arrivals)
+        self.counters['malformed'] += int((~good_inputs).sum() + (~good).sum())
+        order = np.argsort(input_stamps[good_inputs], kind='stable')
+        input_stamps = input_stamps[good_inputs][order].tolist()
+        inputs = inputs[good_inputs][order]
+        self.counters['inputs'] += len(input_stamps)
+        last_input = input_stamps[-1] if input_stamps else None
+        zero = self._zero_input
+        kept, estimates, innovations = [], [], []
+        find = bisect.bisect_right
+        for index in np.flatnonzero(good).tolist():
+            stamp = int(stamps[index])
+            self.counters['measurements'] += 1
+            previous = estimator.stamp_ns
+            if previous is not None and 0 < stamp - previous <= self.max_gap_ns:
+                position = find(input_stamps, previous) - 1
+                if position < 0:
+                    self.counters['late_input' if input_stamps else 'no_input'] += 1
+                    u = zero
+                else:
+                    if self.input_stamped and last_input < previous:
+                        self.counters['late_input'] += 1
+                    u = inputs[position]
+            elif not self._admit(stamp, previous):
+                continue
+            else:
+                u = zero
+            estimates.append(estimator.advance(stamp, outputs[index], u))
+            innovations.append(estimator.innovation)
+            kept.append(stamp)
+        self.counters['estimates'] += len(kept)
+        return ReplayArrays(np.array(kept, dtype=np.int64),
+                            np.array(estimates).reshape(-1, estimator.n_states),
+                            np.array(innovations).reshape(-1, n_outputs))
+
+    def _replay_in_arrival_order(self, input_stamps, inputs, stamps, outputs, input_arrivals,
+                                 arrivals) -> 'ReplayArrays':
+        events = sorted(
+            [(int(t), 0, k) for k, t in enumerate(np.asarray(input_arrivals).tolist())]
+            + [(int(t), 1, k) for k, t in enumerate(np.asarray(arrivals).tolist())])
+        samples = []
+        for _, kind, index in events:
+            values = inputs[index] if kind == 0 else outputs[index]
+            if not np.isfinite(values).all():
+                self.counters['malformed'] += 1
+                continue
+            add = self.add_input if kind == 0 else self.add_measurement
+            samples += [(sample.stamp_ns, sample.estimate, sample.innovation)
+                        for sample in add(int((input_stamps if kind == 0 else stamps)[index]),
+                                          values)]
+        samples += [(sample.stamp_ns, sample.estimate, sample.innovation)
+                    for sample in self.flush()]
+        n_states, n_outputs = self.estimator.n_states, self.estimator.n_outputs
+        return ReplayArrays(np.array([s[0] for s in samples], dtype=np.int64),
+                            np.array([s[1] for s in samples]).reshape(-1, n_states),
+                            np.array([s[2] for s in samples]).reshape(-1, n_outputs))
 
     def _prune(self) -> None:
         previous = self.estimator.stamp_ns

@@ -24,6 +24,7 @@ a steady rate costs one matrix-vector product per update and jittered stamps sta
 
 from collections import OrderedDict
 from dataclasses import dataclass
+import math
 from typing import Optional
 
 import numpy as np
@@ -158,6 +159,8 @@ class Estimator:
                                           self.n_states, default_zero=True)
         self._cache: OrderedDict = OrderedDict()
         self._cache_size = cache_size
+        self._last_dt_ns: Optional[int] = None
+        self._last_step_matrices: Optional[StepMatrices] = None
         self._stamp: Optional[int] = None
         self._x = self.initial_state.copy()
         self._start = self.initial_state
@@ -172,7 +175,9 @@ class Estimator:
         vector = np.asarray(values, dtype=float).reshape(-1)
         if vector.size != size:
             raise ValueError(f'{name}: expected {size} values, got {vector.size}')
-        if not np.all(np.isfinite(vector)):
+        # A finite dot product proves every entry finite (cheaper than isfinite().all());
+        # an overflow falls through to the exact check.
+        if not math.isfinite(vector @ vector) and not np.isfinite(vector).all():
             raise ValueError(f'{name}: expected finite values, got {vector.tolist()}')
         return vector
 
@@ -203,6 +208,8 @@ class Estimator:
 
     def step_matrices(self, dt_ns: int) -> StepMatrices:
         """Return the (cached) step matrices for an interval in nanoseconds."""
+        if dt_ns == self._last_dt_ns:
+            return self._last_step_matrices
         step = self._cache.get(dt_ns)
         if step is None:
             step = self.design.step(dt_ns)
@@ -211,6 +218,7 @@ class Estimator:
                 self._cache.popitem(last=False)
         else:
             self._cache.move_to_end(dt_ns)
+        self._last_dt_ns, self._last_step_matrices = dt_ns, step
         return step
 
     def update(self, stamp_ns: int, y, u) -> np.ndarray:
@@ -237,9 +245,16 @@ class Estimator:
             If ``y`` or ``u`` has the wrong length or a non-finite entry.
 
         """
-        y = self._vector('y', y, self.n_outputs)
-        u = self._vector('u', u, self.n_inputs)
-        stamp_ns = int(stamp_ns)
+        return self.advance(int(stamp_ns), self._vector('y', y, self.n_outputs),
+                            self._vector('u', u, self.n_inputs))
+
+    def advance(self, stamp_ns: int, y: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """
+        Update with inputs already checked: float arrays of the right size, finite.
+
+        The one place where an estimate is computed; batch replays call it directly after
+        checking whole arrays at once.
+        """
         if self._stamp is None:
             self._x = self.design.initial_estimate(self._start, y)
             self._innovation = np.zeros(self.n_outputs)
@@ -286,6 +301,7 @@ class Estimator:
             raise ValueError('replace_design: the new design has other dimensions')
         self.design = design
         self._cache.clear()
+        self._last_dt_ns = self._last_step_matrices = None
 
     def run(self, stamps_ns, outputs, inputs) -> np.ndarray:
         """
