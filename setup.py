@@ -46,6 +46,7 @@ setup(
             'observer = observer_ros.nodes.observer:main',
             'state_feedback = observer_ros.nodes.state_feedback:main',
             'closed_loop = observer_ros.nodes.closed_loop:main',
+            'replay = observer_ros.tools.replay:main',
         ],
     },
 )

@@ -112,7 +112,7 @@ def offline_estimates(system, recorder):
             np.array([s.estimate for s in samples]))
 
 
-def run_lockstep(config, samples, extra=(), reference=None):
+def run_lockstep(config, samples, extra=(), reference=None, bag=None, storage='mcap'):
     """Run the closed loop in lockstep; return (system, recorder arrays, plant counters)."""
     with ros_context('--params-file', str(CONFIG_DIR / config)) as context:
         loop = ClosedLoop(record=True, context=context, overrides=overrides(
@@ -130,6 +130,8 @@ def run_lockstep(config, samples, extra=(), reference=None):
                                   10.0), 'the reference never reached state_feedback'
             assert loop.spin(timeout_sec=60.0), 'the lockstep run did not finish'
             recorder = loop.recorder
+            if bag is not None:
+                loop.record(str(bag), storage)
             result = {topic: recorder.arrays(topic) for topic in ('y', 'u', 'x_true', 'x_hat')}
             return loop.observer.system, recorder, result, dict(loop.plant.counters)
         finally:

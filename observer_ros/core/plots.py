@@ -15,10 +15,12 @@
 """PNG figures of an estimation run, in the style of the seeds' figures."""
 
 import math
+import os
 
 import numpy as np
 
-from observer_ros.core.evaluation import ErrorReport
+from observer_ros.core.evaluation import (
+    align, decay_rate, error_report, ErrorReport, format_error_table, settling_time)
 
 
 def plot_estimation(path: str, report: ErrorReport, truth: np.ndarray, estimate: np.ndarray,
@@ -67,3 +69,41 @@ def plot_estimation(path: str, report: ErrorReport, truth: np.ndarray, estimate:
     figure.tight_layout()
     figure.savefig(path, dpi=100)
     plt.close(figure)
+
+
+def write_run_report(directory: str, name: str, system, truth_stamps, truth, stamps,
+                     estimates, title: str = '') -> str:
+    """
+    Compare ``x_hat`` with ``x_true`` of one run: the printed table and ``DIRECTORY/NAME.png``.
+
+    Parameters
+    ----------
+    directory, name : str
+        Where the PNG goes (``name`` without extension).
+    system : observer_ros.core.config.System
+        Gives the state names and the designed poles (settling time, decay envelope).
+    truth_stamps, truth, stamps, estimates : numpy.ndarray
+        Both series; they are compared at the stamps they share.
+
+    Returns
+    -------
+    str
+        The error table followed by the path of the plot.
+
+    Raises
+    ------
+    ValueError
+        When the two series share no stamp.
+
+    """
+    common, truth, estimates = align(truth_stamps, truth, stamps, estimates)
+    if not len(common):
+        raise ValueError('x_true and x_hat share no stamp: nothing to compare')
+    dt = system.model.dt
+    poles = system.observer.achieved_poles
+    report = error_report(common, truth, estimates, system.model.state_names,
+                          settling_time(poles, dt))
+    os.makedirs(directory, exist_ok=True)
+    path = os.path.join(directory, f'{name}.png')
+    plot_estimation(path, report, truth, estimates, decay_rate(poles, dt), title=title)
+    return format_error_table(report) + f'\nplot: {path}'

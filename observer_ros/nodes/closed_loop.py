@@ -31,10 +31,9 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from rclpy.utilities import remove_ros_args
 
+from observer_ros.bags.storage import BagError, STORAGES, TopicToWrite, write_bag
 from observer_ros.core.errors import ConfigError, DesignError
-from observer_ros.core.evaluation import (
-    align, decay_rate, error_report, format_error_table, settling_time)
-from observer_ros.core.plots import plot_estimation
+from observer_ros.core.plots import write_run_report
 from observer_ros.nodes.observer import ObserverNode
 from observer_ros.nodes.plant_simulator import PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
@@ -92,17 +91,20 @@ class ClosedLoop:
     def report(self, directory: str) -> str:
         """Error table of ``x_hat`` against ``x_true``; writes the PNG plot into ``directory``."""
         system = self.observer.system
-        stamps, truth, estimate = align(*self.recorder.arrays('x_true'),
-                                        *self.recorder.arrays('x_hat'))
-        dt = system.model.dt
-        poles = system.observer.achieved_poles
-        settle = settling_time(poles, dt)
-        report = error_report(stamps, truth, estimate, system.model.state_names, settle)
-        os.makedirs(directory, exist_ok=True)
-        path = os.path.join(directory, 'closed_loop.png')
-        plot_estimation(path, report, truth, estimate, decay_rate(poles, dt),
-                        title=f'{system.observer.kind} observer in closed loop')
-        return format_error_table(report) + f'\nplot: {path}'
+        return write_run_report(directory, 'closed_loop', system,
+                                *self.recorder.arrays('x_true'), *self.recorder.arrays('x_hat'),
+                                title=f'{system.observer.kind} observer in closed loop')
+
+    def record(self, path: str, storage: str = 'mcap') -> str:
+        """Write the recorded topics to a new rosbag2 bag; return its path."""
+        topics = []
+        for topic in RECORDED_TOPICS:
+            codec = self.recorder.codecs[topic]
+            stamps, values = self.recorder.arrays(topic)
+            topics.append(TopicToWrite(self.recorder.resolve_topic_name(topic), codec.kind,
+                                       codec.field, codec.names, stamps,
+                                       self.recorder.receive_times(topic), values))
+        return str(write_bag(path, topics, storage))
 
 
 def main(args=None) -> int:
@@ -112,10 +114,16 @@ def main(args=None) -> int:
         prog='closed_loop', description='Plant, observer and state feedback in one process.')
     parser.add_argument('--report', metavar='DIR',
                         help='print the error table and write DIR/closed_loop.png at the end')
+    parser.add_argument('--record', metavar='BAG',
+                        help='write y, u, u_cmd, x_true and x_hat to a new rosbag2 bag at the end')
+    parser.add_argument('--storage', choices=STORAGES, default='mcap',
+                        help='bag storage for --record (default: mcap)')
     options = parser.parse_args(remove_ros_args(argv)[1:])
+    if options.record and os.path.exists(options.record):
+        parser.error(f'--record: {options.record} exists already')
     rclpy.init(args=argv)
     try:
-        loop = ClosedLoop(record=options.report is not None)
+        loop = ClosedLoop(record=options.report is not None or options.record is not None)
     except (ConfigError, DesignError) as e:
         print(f'closed_loop: error: {e}', file=sys.stderr)
         rclpy.try_shutdown()
@@ -124,6 +132,11 @@ def main(args=None) -> int:
         done = loop.spin()
         if done and options.report:
             print(loop.report(options.report))
+        if done and options.record:
+            print(f'bag: {loop.record(options.record, options.storage)}')
+    except BagError as e:
+        print(f'closed_loop: error: {e}', file=sys.stderr)
+        return 2
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

@@ -15,6 +15,7 @@
 """A node that collects vector topics into arrays (and keeps the raw messages)."""
 
 from collections import defaultdict
+import time
 
 import numpy as np
 from rclpy.node import Node
@@ -45,6 +46,7 @@ class TopicRecorder(Node):
         self.codecs = {topic: VectorCodec.for_topic(system, topic) for topic in topics}
         self.stamps: dict = defaultdict(list)
         self.values: dict = defaultdict(list)
+        self.received: dict = defaultdict(list)
         self.messages: dict = defaultdict(list)
         self.keep_messages = keep_messages
         for topic, codec in self.codecs.items():
@@ -61,7 +63,12 @@ class TopicRecorder(Node):
         except MalformedMessage:
             return
         self.stamps[topic].append(now if stamp is None else stamp)
+        self.received[topic].append(time.time_ns())
         self.values[topic].append(vector)
+
+    def receive_times(self, topic: str) -> np.ndarray:
+        """Wall-clock receive times (ns) of a topic's messages, as a bag recorder logs them."""
+        return np.array(self.received[topic], dtype=np.int64)
 
     def count(self, topic: str) -> int:
         """Return the number of messages recorded on a topic."""

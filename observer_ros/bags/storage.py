@@ -1,0 +1,205 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Read and write vector topics of rosbag2 bags (MCAP or sqlite3) with ``rosbags``.
+
+Reading checks what it finds against what was asked (topic present, message type, vector
+length) and against the bag's own metadata (message counts), and says what is wrong with
+the bag's path and topic in the message. Writing goes to a temporary directory renamed into
+place when complete, so a failed write never leaves a bag that looks valid.
+"""
+
+from dataclasses import dataclass
+import os
+from pathlib import Path
+import shutil
+import tempfile
+from typing import Sequence
+
+import numpy as np
+
+from observer_ros.bags.cdr import decode, Encoder, MESSAGE_TYPES
+
+STORAGES = ('mcap', 'sqlite3')
+
+
+class BagError(ValueError):
+    """A bag that cannot give what was asked, with the reason."""
+
+
+@dataclass(frozen=True)
+class TopicData:
+    """One topic's vectors: header stamps (log time when unstamped), log times, values."""
+
+    stamps_ns: np.ndarray
+    log_times_ns: np.ndarray
+    values: np.ndarray
+
+
+@dataclass(frozen=True)
+class TopicToWrite:
+    """A vector topic to write: name, message kind, field, joint names and the data."""
+
+    topic: str
+    kind: str
+    field: str
+    names: Sequence[str]
+    stamps_ns: np.ndarray
+    log_times_ns: np.ndarray
+    values: np.ndarray
+
+
+def _absolute(topic: str) -> str:
+    return topic if topic.startswith('/') else '/' + topic
+
+
+def _reader(path):
+    from rosbags.rosbag2 import Reader
+    try:
+        reader = Reader(Path(path))
+        reader.open()
+    except Exception as e:  # rosbags raises several types for unreadable bags
+        raise BagError(f'{path}: not a readable rosbag2 bag ({e})') from e
+    return reader
+
+
+def bag_topics(path) -> dict:
+    """Return ``{topic: (message type, message count)}`` of a bag."""
+    reader = _reader(path)
+    try:
+        return {name: (info.msgtype, info.msgcount) for name, info in reader.topics.items()}
+    finally:
+        reader.close()
+
+
+def read_topic(path, topic: str, kind: str, field: str, names: Sequence[str]) -> TopicData:
+    """
+    Read one vector topic.
+
+    Parameters
+    ----------
+    path : path-like
+        The bag directory (or its storage file).
+    topic : str
+        Topic name (relative names are taken from the root, as recorded).
+    kind : {'joint_state', 'float64_multi_array'}
+    field : str
+        JointState field with the values.
+    names : sequence of str
+        Joint names in vector order (their count for Float64MultiArray).
+
+    Raises
+    ------
+    BagError
+        Unreadable bag, missing topic (the topics present are listed), wrong type, no
+        messages, fewer messages than the metadata counts, or messages without the vector.
+
+    """
+    topic = _absolute(topic)
+    expected = MESSAGE_TYPES[kind]
+    reader = _reader(path)
+    try:
+        connections = [c for c in reader.connections if c.topic == topic]
+        if not connections:
+            present = ', '.join(f'{c.topic} ({c.msgtype})' for c in reader.connections)
+            raise BagError(f'{path}: no topic {topic}; the bag has '
+                           f'{present or "no topics (it is empty)"}')
+        types = {c.msgtype for c in connections}
+        if types != {expected}:
+            raise BagError(f'{path}: topic {topic} holds {", ".join(sorted(types))}, expected '
+                           f'{expected} (set topics.<topic>.type to match)')
+        counted = sum(c.msgcount for c in connections)
+        log_times, raws = [], []
+        for _, log_time, raw in reader.messages(connections=connections):
+            log_times.append(log_time)
+            raws.append(raw)
+    except BagError:
+        raise
+    except Exception as e:
+        raise BagError(f'{path}: cannot read topic {topic} ({e})') from e
+    finally:
+        reader.close()
+    if not raws:
+        raise BagError(f'{path}: topic {topic} has no messages' + (
+            f' although the metadata counts {counted}' if counted else ''))
+    if counted and len(raws) != counted:
+        raise BagError(f'{path}: topic {topic}: read {len(raws)} messages but the metadata '
+                       f'counts {counted}; the bag is damaged or its QoS records disagree')
+    stamps, values, errors = decode(raws, kind, field, names)
+    if errors:
+        index, reason = next(iter(sorted(errors.items())))
+        raise BagError(f'{path}: topic {topic}: {len(errors)} of {len(raws)} messages do not '
+                       f'hold the {len(names)}-vector {list(names)} (first, message {index}: '
+                       f'{reason})')
+    log_times = np.array(log_times, dtype=np.int64)
+    stamps = np.where(stamps == 0, log_times, stamps)
+    return TopicData(stamps, log_times, values)
+
+
+def _qos():
+    from rosbags.interfaces import (
+        Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime)
+    zero = QosTime(0, 0)
+    return [Qos(QosHistory.KEEP_LAST, 10, QosReliability.RELIABLE, QosDurability.VOLATILE,
+                zero, zero, QosLiveliness.AUTOMATIC, zero, False)]
+
+
+def write_bag(path, topics: Sequence[TopicToWrite], storage: str = 'mcap') -> Path:
+    """
+    Write vector topics to a new bag directory at ``path``.
+
+    Messages are written in log-time order with the reliable QoS the nodes publish with,
+    so ``ros2 bag play`` offers them as recorded.
+
+    Raises
+    ------
+    BagError
+        ``path`` exists, or an unknown storage.
+
+    """
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    if storage not in STORAGES:
+        raise BagError(f'storage: expected one of {", ".join(STORAGES)}, got {storage!r}')
+    path = Path(path)
+    if path.exists():
+        raise BagError(f'{path}: exists already; choose a new output path')
+    path.parent.mkdir(parents=True, exist_ok=True)
+    scratch = Path(tempfile.mkdtemp(prefix=f'.{path.name}.', dir=path.parent))
+    partial = scratch / path.name
+    plugin = StoragePlugin.MCAP if storage == 'mcap' else StoragePlugin.SQLITE3
+    try:
+        with Writer(partial, version=9, storage_plugin=plugin) as writer:
+            streams = []
+            for item in topics:
+                encoder = Encoder(item.kind, item.names, item.field)
+                connection = writer.add_connection(
+                    _absolute(item.topic), encoder.msgtype, typestore=encoder.typestore,
+                    offered_qos_profiles=_qos())
+                raws = encoder.encode(item.stamps_ns, item.values)
+                streams.append((np.asarray(item.log_times_ns, dtype=np.int64), connection,
+                                raws))
+            times = np.concatenate([s[0] for s in streams]) if streams else np.zeros(0)
+            which = np.concatenate([np.full(len(s[0]), k) for k, s in enumerate(streams)]
+                                   ) if streams else np.zeros(0, dtype=int)
+            position = np.concatenate([np.arange(len(s[0])) for s in streams]
+                                      ) if streams else np.zeros(0, dtype=int)
+            write = writer.write
+            for k in np.lexsort((which, times)).tolist():
+                stream = streams[which[k]]
+                write(stream[1], int(times[k]), stream[2][position[k]])
+        os.replace(partial, path)
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    return path

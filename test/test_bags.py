@@ -1,0 +1,241 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""Bags: CDR codec, record and replay round trips, robot-style layouts and bad bags."""
+
+import subprocess
+
+import numpy as np
+import pytest
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import get_typestore, Stores
+import yaml
+
+from conftest import CONFIG_DIR
+from observer_ros.bags.cdr import decode, Encoder
+from observer_ros.bags.replay import replay_bag, write_replay
+from observer_ros.bags.storage import BagError, read_topic, TopicToWrite, write_bag
+from observer_ros.core.config import load_parameter_file, validate_parameters
+from observer_ros.core.simulation import PlantSimulator
+from ros_support import run_lockstep
+
+TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
+TYPES = TYPESTORE.types
+JOINT_STATE = 'sensor_msgs/msg/JointState'
+FLOAT64_MULTI_ARRAY = 'std_msgs/msg/Float64MultiArray'
+STORAGES = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}
+
+
+def joint_state(stamp_ns, names, position, velocity=(), effort=(), frame_id=''):
+    """Build a rosbags JointState."""
+    stamp = TYPES['builtin_interfaces/msg/Time'](sec=int(stamp_ns // 10**9),
+                                                 nanosec=int(stamp_ns % 10**9))
+    return TYPES[JOINT_STATE](
+        header=TYPES['std_msgs/msg/Header'](stamp=stamp, frame_id=frame_id), name=list(names),
+        position=np.array(position, dtype=float), velocity=np.array(velocity, dtype=float),
+        effort=np.array(effort, dtype=float))
+
+
+def float64_array(values):
+    """Build a rosbags Float64MultiArray."""
+    layout = TYPES['std_msgs/msg/MultiArrayLayout'](dim=[], data_offset=0)
+    return TYPES[FLOAT64_MULTI_ARRAY](layout=layout, data=np.array(values, dtype=float))
+
+
+def serialize(message):
+    """CDR bytes of a rosbags message."""
+    return bytes(TYPESTORE.serialize_cdr(message, message.__msgtype__))
+
+
+def test_decode_equals_rosbags_on_mixed_layouts():
+    rng = np.random.default_rng(0)
+    raws, expected = [], []
+    for index in range(400):
+        names = [['shoulder', 'y1', 'wrist'], ['y1'], ['a', 'b', 'c', 'y1']][index % 3]
+        values = rng.standard_normal(len(names))
+        message = joint_state(index * 10**7 + 3, names, rng.standard_normal(len(names)),
+                              values if index % 2 else (), frame_id='base' * (index % 4))
+        raws.append(serialize(message))
+        parsed = TYPESTORE.deserialize_cdr(raws[-1], JOINT_STATE)
+        expected.append((parsed.header.stamp.sec * 10**9 + parsed.header.stamp.nanosec,
+                         parsed.position[list(parsed.name).index('y1')]))
+    stamps, values, errors = decode(raws, 'joint_state', 'position', ['y1'])
+    assert errors == {}
+    assert np.array_equal(stamps, [e[0] for e in expected])
+    assert np.array_equal(values[:, 0], [e[1] for e in expected])
+    # Velocity is empty in half of them: those are reported, never read as garbage.
+    _, values, errors = decode(raws, 'joint_state', 'velocity', ['y1'])
+    assert sorted(errors) == list(range(0, 400, 2))
+    assert np.isnan(values[0::2]).all() and np.isfinite(values[1::2]).all()
+
+
+@pytest.mark.parametrize('kind', ['joint_state', 'float64_multi_array'])
+def test_encode_equals_rosbags(kind):
+    rng = np.random.default_rng(1)
+    stamps = rng.integers(0, 10**12, size=50)
+    values = rng.standard_normal((50, 3))
+    raws = Encoder(kind, ['x1', 'x2', 'x3']).encode(stamps, values)
+    for stamp, row, raw in zip(stamps, values, raws):
+        if kind == 'joint_state':
+            expected = joint_state(stamp, ['x1', 'x2', 'x3'], row)
+        else:
+            expected = float64_array(row)
+        assert raw == serialize(expected)
+    decoded = decode(raws, kind, 'position', ['x1', 'x2', 'x3'])
+    assert np.array_equal(decoded[1], values)
+
+
+@pytest.mark.parametrize('storage', sorted(STORAGES))
+def test_record_replay_round_trip(tmp_path, storage):
+    bag = tmp_path / 'run'
+    config = 'seed001_fourth_order_chen.yaml'
+    system, _, online, _ = run_lockstep(config, samples=200, bag=bag, storage=storage)
+    result = replay_bag(bag, CONFIG_DIR / config)
+    # Offline equals what the observer node published during the run, bit for bit ...
+    assert np.array_equal(result.stamps_ns, online['x_hat'][0])
+    assert np.array_equal(result.estimates, online['x_hat'][1])
+    # ... and what the bag holds on /x_hat.
+    recorded = read_topic(bag, 'x_hat', 'joint_state', 'position', system.model.state_names)
+    assert np.array_equal(recorded.stamps_ns, result.stamps_ns)
+    assert np.array_equal(recorded.values, result.estimates)
+    assert result.counters['estimates'] == 200 and result.counters['malformed'] == 0
+    assert result.error_norms()[-1] < 1e-2 * result.error_norms()[0]
+    # Written results read back unchanged, from the bag and the CSV.
+    write_replay(result, str(tmp_path / 'out'), str(tmp_path / 'out.csv'), storage)
+    again = read_topic(tmp_path / 'out', 'x_hat', 'joint_state', 'position',
+                       system.model.state_names)
+    assert np.array_equal(again.values, result.estimates)
+    table = np.loadtxt(tmp_path / 'out.csv', delimiter=',', skiprows=1)
+    assert np.array_equal(table[:, 0].astype(np.int64), result.stamps_ns)
+    assert np.array_equal(table[:, 1:5], result.estimates)
+
+
+def robot_parameters(tmp_path):
+    """Seed 003 plant measured as joint 'elbow' with a Float64MultiArray command topic."""
+    params = yaml.safe_load((CONFIG_DIR / 'seed003_full_order.yaml').read_text())
+    section = params['/**']['ros__parameters']
+    section['model']['output_names'] = ['elbow']
+    section['model']['input_names'] = ['elbow_effort']
+    section['topics'] = {'u': {'type': 'float64_multi_array'}}
+    path = tmp_path / 'robot.yaml'
+    path.write_text(yaml.safe_dump(params))
+    return path
+
+
+def write_robot_bag(path, samples=300, storage='mcap'):
+    """Record like ``ros2 bag record /joint_states /effort_controller/commands``."""
+    params = validate_parameters(load_parameter_file(str(CONFIG_DIR /
+                                                         'seed003_full_order.yaml')))
+    plant = PlantSimulator(params.model, initial_state=[0.5, -0.5])
+    rng = np.random.default_rng(3)
+    truth = []
+    with Writer(path, version=9, storage_plugin=STORAGES[storage]) as writer:
+        joints = writer.add_connection('/joint_states', JOINT_STATE, typestore=TYPESTORE)
+        commands = writer.add_connection('/effort_controller/commands', FLOAT64_MULTI_ARRAY,
+                                         typestore=TYPESTORE)
+        for index in range(samples):
+            stamp = 1_700_000_000 * 10**9 + index * 10**7
+            u = rng.uniform(-1.0, 1.0, size=1)
+            y = plant.measure()
+            truth.append(plant.x.copy())
+            # The command in effect from this sample on was logged just before it.
+            writer.write(commands, stamp - 1000, serialize(float64_array(u)))
+            writer.write(joints, stamp, serialize(joint_state(
+                stamp, ['wrist', 'elbow', 'shoulder'], [0.1, y[0], -0.2], [0.0, 1.0, 2.0])))
+            plant.step(u, 0.01)
+    return np.array(truth)
+
+
+def test_robot_style_bag_reconstructs_the_unmeasured_state(tmp_path):
+    bag = tmp_path / 'robot'
+    truth = write_robot_bag(bag)
+    result = replay_bag(bag, robot_parameters(tmp_path), y_topic='/joint_states',
+                        u_topic='/effort_controller/commands')
+    assert len(result.estimates) == len(truth)
+    error = np.linalg.norm(result.estimates - truth, axis=1)
+    assert error[-1] < 1e-9 * error.max()
+    # The unmeasured velocity comes out right.
+    np.testing.assert_allclose(result.estimates[-50:, 1], truth[-50:, 1], atol=1e-9)
+
+
+def test_bad_bags_get_clear_errors(tmp_path):
+    bag = tmp_path / 'robot'
+    write_robot_bag(bag, samples=20)
+    params = validate_parameters(load_parameter_file(str(robot_parameters(tmp_path))))
+    with pytest.raises(BagError, match=r'no topic /y; the bag has /joint_states \(sensor_msgs'):
+        replay_bag(bag, params)
+    with pytest.raises(BagError, match='holds std_msgs/msg/Float64MultiArray, expected '
+                                       'sensor_msgs/msg/JointState'):
+        read_topic(bag, '/effort_controller/commands', 'joint_state', 'position', ['u1'])
+    with pytest.raises(BagError, match=r'20 of 20 messages do not hold the 2-vector'):
+        read_topic(bag, '/effort_controller/commands', 'float64_multi_array', 'position',
+                   ['a', 'b'])
+    with pytest.raises(BagError, match=r"joints \['knee'\] missing"):
+        read_topic(bag, '/joint_states', 'joint_state', 'position', ['knee'])
+    garbage = tmp_path / 'garbage'
+    garbage.mkdir()
+    (garbage / 'metadata.yaml').write_text('not: a bag\n')
+    with pytest.raises(BagError, match='not a readable rosbag2 bag'):
+        read_topic(garbage, '/y', 'joint_state', 'position', ['y1'])
+    with pytest.raises(BagError, match='not a readable rosbag2 bag'):
+        read_topic(tmp_path / 'missing', '/y', 'joint_state', 'position', ['y1'])
+    empty = tmp_path / 'empty'
+    with Writer(empty, version=9, storage_plugin=StoragePlugin.MCAP):
+        pass
+    with pytest.raises(BagError, match='no topics'):
+        read_topic(empty, '/y', 'joint_state', 'position', ['y1'])
+
+
+def test_metadata_count_disagreeing_with_the_messages_is_an_error(tmp_path):
+    bag = tmp_path / 'robot'
+    write_robot_bag(bag, samples=20, storage='sqlite3')
+    metadata = bag / 'metadata.yaml'
+    text = metadata.read_text()
+    assert 'message_count: 20' in text
+    metadata.write_text(text.replace('message_count: 20', 'message_count: 35', 1))
+    with pytest.raises(BagError, match='read 20 messages but the metadata counts 35'):
+        read_topic(bag, '/joint_states', 'joint_state', 'position', ['elbow'])
+
+
+def test_writing_never_leaves_a_partial_bag(tmp_path):
+    target = tmp_path / 'out'
+    good = TopicToWrite('/x', 'joint_state', 'position', ['a'], np.array([1, 2]),
+                        np.array([1, 2]), np.array([[1.0], [2.0]]))
+    bad = TopicToWrite('/z', 'joint_state', 'position', ['a', 'b'], np.array([1]),
+                       np.array([1]), np.array([[1.0, 2.0, 3.0]]))
+    with pytest.raises(ValueError):
+        write_bag(target, [good, bad])
+    assert list(tmp_path.iterdir()) == []
+    write_bag(target, [good])
+    with pytest.raises(BagError, match='exists already'):
+        write_bag(target, [good])
+
+
+def test_replay_cli(tmp_path):
+    bag = tmp_path / 'robot'
+    write_robot_bag(bag, samples=50)
+    params = str(robot_parameters(tmp_path))
+    result = subprocess.run(['replay', str(bag), params, '--y-topic', '/joint_states',
+                             '--u-topic', '/effort_controller/commands', '--csv',
+                             str(tmp_path / 'x_hat.csv'), '--output', str(tmp_path / 'out')],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0, result.stderr
+    assert 'replayed 50 measurements into 50 estimates' in result.stdout
+    assert (tmp_path / 'x_hat.csv').read_text().count('\n') == 51
+    failed = subprocess.run(['replay', str(bag), params], capture_output=True, text=True,
+                            timeout=60)
+    assert failed.returncode == 2
+    lines = failed.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith('replay: error: ') and '/joint_states' in (
+        lines[0])
