@@ -22,7 +22,7 @@ from your own tests::
 
     from observer_ros.bags.replay import replay_bag
     result = replay_bag('my_run', 'my_params.yaml')
-    assert result.error_norms('/joint_states_truth')[-1] < 1e-3  # or any check on arrays
+    assert result.error_norms()[-1] < 1e-3  # against /x_true; or any check on the arrays
 """
 
 from dataclasses import dataclass, field
