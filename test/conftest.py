@@ -18,7 +18,9 @@ import os
 from pathlib import Path
 import random
 
+import numpy as np
 import pytest
+import scipy.optimize
 
 REPOSITORY = Path(__file__).resolve().parents[1]
 CONFIG_DIR = REPOSITORY / 'config'
@@ -34,3 +36,14 @@ os.environ.setdefault('MPLBACKEND', 'Agg')
 def config_dir() -> Path:
     """Directory of the shipped parameter files."""
     return CONFIG_DIR
+
+
+def match(achieved, wanted):
+    """Reorder ``achieved`` so that entry ``i`` is the one paired with ``wanted[i]``."""
+    achieved = np.asarray(achieved, dtype=complex)
+    wanted = np.asarray(wanted, dtype=complex)
+    rows, cols = scipy.optimize.linear_sum_assignment(
+        np.abs(achieved[:, None] - wanted[None, :]))
+    result = np.empty_like(wanted)
+    result[cols] = achieved[rows]
+    return result

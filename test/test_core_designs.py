@@ -33,6 +33,7 @@ import scipy.linalg
 import scipy.optimize
 import scipy.signal
 
+from conftest import match
 from observer_ros.core.design.chen import design_chen, MAX_CONDITION
 from observer_ros.core.design.controller import (
     closed_loop_matrix, closed_loop_poles, controller_state_space, controller_transfer_function,
@@ -44,17 +45,6 @@ from observer_ros.core.design.reduced_order import design_reduced_order
 from observer_ros.core.discretize import van_loan, zero_order_hold
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.model import StateSpaceModel
-
-
-def match(achieved, wanted):
-    """Reorder ``achieved`` so that entry ``i`` is the one paired with ``wanted[i]``."""
-    achieved = np.asarray(achieved, dtype=complex)
-    wanted = np.asarray(wanted, dtype=complex)
-    rows, cols = scipy.optimize.linear_sum_assignment(
-        np.abs(achieved[:, None] - wanted[None, :]))
-    result = np.empty_like(wanted)
-    result[cols] = achieved[rows]
-    return result
 
 
 def assert_same_roots(achieved, wanted, rtol=1e-8):

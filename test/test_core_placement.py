@@ -27,8 +27,8 @@ from hypothesis import given, HealthCheck, settings
 from hypothesis import strategies as st
 import numpy as np
 import pytest
-import scipy.optimize
 
+from conftest import match
 from observer_ros.core import placement
 from observer_ros.core.analysis import (
     controllability, observability, pbh_lost_modes, require_controllable, require_observable)
@@ -60,17 +60,6 @@ def random_distinct_poles(seed, count, min_gap=0.3):
         gaps = np.abs(poles[:, None] - poles[None, :]) + np.eye(count) * 1e9
         if gaps.min() >= min_gap:
             return poles
-
-
-def match(achieved, wanted):
-    """Reorder ``achieved`` so that entry ``i`` is the one paired with ``wanted[i]``."""
-    achieved = np.asarray(achieved, dtype=complex)
-    wanted = np.asarray(wanted, dtype=complex)
-    rows, cols = scipy.optimize.linear_sum_assignment(
-        np.abs(achieved[:, None] - wanted[None, :]))
-    result = np.empty_like(wanted)
-    result[cols] = achieved[rows]
-    return result
 
 
 def assert_eigenvalues(matrix, wanted, rtol=1e-6):

@@ -30,6 +30,7 @@ import scipy.linalg
 import scipy.optimize
 import scipy.signal
 
+from conftest import match
 from observer_ros.core import placement
 from observer_ros.core.analysis import observability, observability_matrix
 from observer_ros.core.design.chen import design_chen
@@ -72,21 +73,10 @@ def seed001_fourth_order():
     return StateSpaceModel.from_matrices(a, b, c, d)
 
 
-def matched(achieved, wanted):
-    """Reorder ``achieved`` to pair each entry with the nearest entry of ``wanted``."""
-    achieved = np.asarray(achieved, dtype=complex)
-    wanted = np.asarray(wanted, dtype=complex)
-    rows, cols = scipy.optimize.linear_sum_assignment(
-        np.abs(achieved[:, None] - wanted[None, :]))
-    result = np.empty_like(wanted)
-    result[cols] = achieved[rows]
-    return result
-
-
 def assert_same_roots(achieved, wanted, rtol):
     """Assert two root sets agree entry by entry after optimal matching."""
     wanted = np.asarray(wanted, dtype=complex)
-    got = matched(achieved, wanted)
+    got = match(achieved, wanted)
     np.testing.assert_allclose(got, wanted, rtol=rtol, atol=0.0)
 
 
