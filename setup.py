@@ -47,6 +47,7 @@ setup(
             'state_feedback = observer_ros.nodes.state_feedback:main',
             'closed_loop = observer_ros.nodes.closed_loop:main',
             'replay = observer_ros.tools.replay:main',
+            'play_bag = observer_ros.nodes.bag_player:main',
         ],
     },
 )

@@ -14,6 +14,7 @@
 
 """Shared fixtures: an isolated ROS domain per test run and the shipped configs."""
 
+import ast
 import os
 from pathlib import Path
 import random
@@ -47,3 +48,14 @@ def match(achieved, wanted):
     result = np.empty_like(wanted)
     result[cols] = achieved[rows]
     return result
+
+
+def console_scripts() -> list:
+    """Names of the console scripts declared in setup.py."""
+    tree = ast.parse((REPOSITORY / 'setup.py').read_text(encoding='utf-8'))
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Dict):
+            for key, value in zip(node.keys, node.values):
+                if isinstance(key, ast.Constant) and key.value == 'console_scripts':
+                    return [ast.literal_eval(item).split('=')[0].strip() for item in value.elts]
+    raise AssertionError('no console_scripts in setup.py')

@@ -19,43 +19,17 @@ import subprocess
 import numpy as np
 import pytest
 from rosbags.rosbag2 import StoragePlugin, Writer
-from rosbags.typesys import get_typestore, Stores
-import yaml
 
+from bag_support import (float64_array, JOINT_STATE, joint_state, robot_parameters, serialize,
+                         TYPESTORE, write_robot_bag)
 from conftest import CONFIG_DIR
 from observer_ros.bags.cdr import decode, Encoder
 from observer_ros.bags.replay import replay_bag, write_replay
 from observer_ros.bags.storage import BagError, read_topic, TopicToWrite, write_bag
 from observer_ros.core.config import load_parameter_file, validate_parameters
-from observer_ros.core.simulation import PlantSimulator
 from ros_support import run_lockstep
 
-TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
-TYPES = TYPESTORE.types
-JOINT_STATE = 'sensor_msgs/msg/JointState'
-FLOAT64_MULTI_ARRAY = 'std_msgs/msg/Float64MultiArray'
 STORAGES = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}
-
-
-def joint_state(stamp_ns, names, position, velocity=(), effort=(), frame_id=''):
-    """Build a rosbags JointState."""
-    stamp = TYPES['builtin_interfaces/msg/Time'](sec=int(stamp_ns // 10**9),
-                                                 nanosec=int(stamp_ns % 10**9))
-    return TYPES[JOINT_STATE](
-        header=TYPES['std_msgs/msg/Header'](stamp=stamp, frame_id=frame_id), name=list(names),
-        position=np.array(position, dtype=float), velocity=np.array(velocity, dtype=float),
-        effort=np.array(effort, dtype=float))
-
-
-def float64_array(values):
-    """Build a rosbags Float64MultiArray."""
-    layout = TYPES['std_msgs/msg/MultiArrayLayout'](dim=[], data_offset=0)
-    return TYPES[FLOAT64_MULTI_ARRAY](layout=layout, data=np.array(values, dtype=float))
-
-
-def serialize(message):
-    """CDR bytes of a rosbags message."""
-    return bytes(TYPESTORE.serialize_cdr(message, message.__msgtype__))
 
 
 def test_decode_equals_rosbags_on_mixed_layouts():
@@ -119,42 +93,6 @@ def test_record_replay_round_trip(tmp_path, storage):
     table = np.loadtxt(tmp_path / 'out.csv', delimiter=',', skiprows=1)
     assert np.array_equal(table[:, 0].astype(np.int64), result.stamps_ns)
     assert np.array_equal(table[:, 1:5], result.estimates)
-
-
-def robot_parameters(tmp_path):
-    """Seed 003 plant measured as joint 'elbow' with a Float64MultiArray command topic."""
-    params = yaml.safe_load((CONFIG_DIR / 'seed003_full_order.yaml').read_text())
-    section = params['/**']['ros__parameters']
-    section['model']['output_names'] = ['elbow']
-    section['model']['input_names'] = ['elbow_effort']
-    section['topics'] = {'u': {'type': 'float64_multi_array'}}
-    path = tmp_path / 'robot.yaml'
-    path.write_text(yaml.safe_dump(params))
-    return path
-
-
-def write_robot_bag(path, samples=300, storage='mcap'):
-    """Record like ``ros2 bag record /joint_states /effort_controller/commands``."""
-    params = validate_parameters(load_parameter_file(str(CONFIG_DIR /
-                                                         'seed003_full_order.yaml')))
-    plant = PlantSimulator(params.model, initial_state=[0.5, -0.5])
-    rng = np.random.default_rng(3)
-    truth = []
-    with Writer(path, version=9, storage_plugin=STORAGES[storage]) as writer:
-        joints = writer.add_connection('/joint_states', JOINT_STATE, typestore=TYPESTORE)
-        commands = writer.add_connection('/effort_controller/commands', FLOAT64_MULTI_ARRAY,
-                                         typestore=TYPESTORE)
-        for index in range(samples):
-            stamp = 1_700_000_000 * 10**9 + index * 10**7
-            u = rng.uniform(-1.0, 1.0, size=1)
-            y = plant.measure()
-            truth.append(plant.x.copy())
-            # The command in effect from this sample on was logged just before it.
-            writer.write(commands, stamp - 1000, serialize(float64_array(u)))
-            writer.write(joints, stamp, serialize(joint_state(
-                stamp, ['wrist', 'elbow', 'shoulder'], [0.1, y[0], -0.2], [0.0, 1.0, 2.0])))
-            plant.step(u, 0.01)
-    return np.array(truth)
 
 
 def test_robot_style_bag_reconstructs_the_unmeasured_state(tmp_path):

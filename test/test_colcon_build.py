@@ -14,7 +14,6 @@
 
 """``colcon build`` of the repository gives every executable and the ament index marker."""
 
-import ast
 import os
 from pathlib import Path
 import shutil
@@ -23,20 +22,10 @@ import sys
 
 import pytest
 
-from conftest import REPOSITORY
+from conftest import console_scripts, REPOSITORY
 
 IGNORED = shutil.ignore_patterns('.venv', 'build', 'install', 'log', '.git', '__pycache__',
                                  '*.egg-info', '.pytest_cache', '.hypothesis', 'output')
-
-
-def console_scripts():
-    tree = ast.parse((REPOSITORY / 'setup.py').read_text(encoding='utf-8'))
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Dict):
-            for key, value in zip(node.keys, node.values):
-                if isinstance(key, ast.Constant) and key.value == 'console_scripts':
-                    return [ast.literal_eval(item).split('=')[0].strip() for item in value.elts]
-    raise AssertionError('no console_scripts in setup.py')
 
 
 @pytest.fixture(scope='module')

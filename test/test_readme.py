@@ -14,7 +14,7 @@
 
 """README stays in step with the code: commands, CI and the parameter schema."""
 
-from conftest import REPOSITORY
+from conftest import console_scripts, REPOSITORY
 from observer_ros.core.config import parameter_table, PARAMETERS
 
 README = (REPOSITORY / 'README.md').read_text(encoding='utf-8')
@@ -40,3 +40,8 @@ def test_ci_runs_the_readme_test_command():
 def test_every_shipped_config_is_listed():
     for path in (REPOSITORY / 'config').glob('*.yaml'):
         assert path.name in README, path.name
+
+
+def test_every_executable_is_documented():
+    for name in console_scripts():
+        assert f'`{name}`' in README, name

@@ -107,11 +107,15 @@ def test_three_processes_in_lockstep_equal_the_one_process_loop():
             sim_time = ['-p', 'use_sim_time:=true']
             processes = [
                 NodeProcess('observer', '--ros-args', '--params-file', path, *sim_time),
-                NodeProcess('state_feedback', '--ros-args', '--params-file', path, *sim_time),
-                NodeProcess('plant_simulator', '--ros-args', '--params-file', path,
-                            '-p', 'plant.lockstep:=true', '-p', f'plant.samples:={samples}',
-                            '-p', 'plant.lockstep_subscribers:=2')]
+                NodeProcess('state_feedback', '--ros-args', '--params-file', path, *sim_time)]
+            x_hat = next(s for s in recorder.subscriptions if s.topic_name == '/x_hat')
             try:
+                # The plant waits for its own subscribers only: see the observer first.
+                assert spin_until(executor, lambda: x_hat.get_publisher_count() > 0, 30.0)
+                processes.append(NodeProcess(
+                    'plant_simulator', '--ros-args', '--params-file', path,
+                    '-p', 'plant.lockstep:=true', '-p', f'plant.samples:={samples}',
+                    '-p', 'plant.lockstep_subscribers:=2'))
                 plant = processes[-1].process
                 spin_until(executor, lambda: plant.poll() is not None, 60.0)
                 spin_until(executor, lambda: recorder.count('x_hat') >= samples, 2.0)

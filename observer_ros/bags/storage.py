@@ -26,7 +26,7 @@ import os
 from pathlib import Path
 import shutil
 import tempfile
-from typing import Sequence
+from typing import Iterator, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -82,6 +82,80 @@ def bag_topics(path) -> dict:
         return {name: (info.msgtype, info.msgcount) for name, info in reader.topics.items()}
     finally:
         reader.close()
+
+
+class Playback:
+    """
+    A bag's messages in log-time order, raw, for publishing them again.
+
+    Parameters
+    ----------
+    path : path-like
+        The bag directory.
+    topics : sequence of str, optional
+        Topics to play (all when None); each must be in the bag.
+    exclude : sequence of str
+        Topics left out.
+
+    Attributes
+    ----------
+    topics : dict
+        ``{topic: (message type, message count in the metadata)}`` of the played topics.
+
+    Raises
+    ------
+    BagError
+        Unreadable bag, a named topic it does not hold (the topics present are listed), or
+        nothing left to play.
+
+    """
+
+    def __init__(self, path, topics: Optional[Sequence[str]] = None,
+                 exclude: Sequence[str] = ()) -> None:
+        self.path = path
+        self._reader = _reader(path)
+        present = {c.topic: c.msgtype for c in self._reader.connections}
+        wanted = set(present) if topics is None else {_absolute(t) for t in topics}
+        wanted -= {_absolute(t) for t in exclude}
+        missing = sorted(wanted - set(present))
+        if missing or not wanted:
+            listing = ', '.join(f'{t} ({m})' for t, m in sorted(present.items()))
+            self._reader.close()
+            raise BagError(f'{path}: ' + (f'no topic {", ".join(missing)}; ' if missing else
+                                          'nothing to play; ') +
+                           f'the bag has {listing or "no topics (it is empty)"}')
+        self._connections = [c for c in self._reader.connections if c.topic in wanted]
+        self.topics = {}
+        for connection in self._connections:
+            msgtype, count = self.topics.get(connection.topic, (connection.msgtype, 0))
+            if msgtype != connection.msgtype:
+                self._reader.close()
+                raise BagError(f'{path}: topic {connection.topic} holds both {msgtype} and '
+                               f'{connection.msgtype}; play it with --exclude')
+            self.topics[connection.topic] = (msgtype, count + connection.msgcount)
+
+    def messages(self) -> Iterator[Tuple[str, int, bytes]]:
+        """Yield ``(topic, log_time_ns, cdr_bytes)`` in log-time order."""
+        try:
+            for connection, log_time, raw in self._reader.messages(
+                    connections=self._connections):
+                yield connection.topic, log_time, bytes(raw)
+        except Exception as e:
+            raise BagError(f'{self.path}: cannot read the messages ({e})') from e
+
+    def check_counts(self, played: dict) -> None:
+        """Raise BagError when a topic gave fewer messages than the metadata counts."""
+        short = [f'{topic}: {played.get(topic, 0)} of {count}'
+                 for topic, (_, count) in sorted(self.topics.items())
+                 if count and played.get(topic, 0) != count]
+        if short:
+            raise BagError(f'{self.path}: read fewer messages than the metadata counts '
+                           f'({"; ".join(short)}); the bag is damaged or its QoS records '
+                           f'disagree')
+
+    def close(self) -> None:
+        """Close the bag."""
+        self._reader.close()
 
 
 def read_topic(path, topic: str, kind: str, field: str, names: Sequence[str]) -> TopicData:

@@ -1,0 +1,163 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""Online replay: ``play_bag`` publishes a bag to the unchanged observer node (sim time)."""
+
+import subprocess
+
+import numpy as np
+import pytest
+
+from bag_support import robot_parameters, ROBOT_TOPICS, write_robot_bag
+from conftest import CONFIG_DIR
+from observer_ros.bags.replay import replay_bag
+from observer_ros.bags.storage import BagError, Playback, read_topic
+from observer_ros.nodes.bag_player import message_class
+from observer_ros.nodes.observer import ObserverNode
+from observer_ros.ros.recorder import TopicRecorder
+from ros_support import executor_with, NodeProcess, ros_context, run_lockstep, spin_until
+
+
+def play_through_observer(bag, params, expected: int, *player_args, remap=()):
+    """
+    Run ``play_bag BAG *player_args`` against an in-process observer node with sim time.
+
+    Return the observer's ``x_hat`` (stamps, values), the player's stdout and the observer's
+    clock at the end (ns).
+    """
+    ros_args = ['--params-file', str(params), '-p', 'use_sim_time:=true']
+    for rule in remap:
+        ros_args += ['-r', rule]
+    with ros_context(*ros_args) as context:
+        observer = ObserverNode(context=context)
+        recorder = TopicRecorder(observer.system, ['x_hat'], context=context)
+        with executor_with(context, observer, recorder) as executor:
+            player = NodeProcess('play_bag', str(bag), *player_args)
+            finished = spin_until(executor, lambda: player.process.poll() is not None, 90.0)
+            code, out, err = player.stop()
+            assert finished and code == 0, err
+            spin_until(executor, lambda: recorder.count('x_hat') >= expected, 5.0)
+            return recorder.arrays('x_hat'), out, observer.get_clock().now().nanoseconds
+
+
+@pytest.mark.parametrize('storage', ['mcap', 'sqlite3'])
+def test_online_play_equals_offline_replay_and_the_recorded_run(tmp_path, storage):
+    bag = tmp_path / 'run'
+    config = CONFIG_DIR / 'seed001_fourth_order_chen.yaml'
+    _, _, online, _ = run_lockstep(config.name, samples=150, bag=bag, storage=storage)
+    offline = replay_bag(bag, config)
+    assert np.array_equal(offline.estimates, online['x_hat'][1])
+    (stamps, estimates), out, clock = play_through_observer(
+        bag, config, len(offline.stamps_ns), '--topics', '/y', '/u', '--paced-by', 'x_hat')
+    # The unchanged node, fed by the player, publishes the offline replay's x_hat exactly.
+    assert np.array_equal(stamps, offline.stamps_ns)
+    assert np.array_equal(estimates, offline.estimates)
+    assert 'played 300 messages (/u 150, /y 150)' in out and '150 answered, 0 unanswered' in out
+    # /clock followed the bag's log time (at least to the last measurement's).
+    assert clock >= offline.outputs.log_times_ns[-1]
+
+
+def test_robot_bag_at_recorded_timing_with_unstamped_commands(tmp_path):
+    bag = tmp_path / 'robot'
+    truth = write_robot_bag(bag, samples=150)
+    params = robot_parameters(tmp_path)
+    offline = replay_bag(bag, params, *ROBOT_TOPICS)
+    # Recorded timing, twice as fast. The node stamps the Float64MultiArray commands on
+    # arrival with /clock; a node that lags behind reads a later /clock (rclpy keeps only the
+    # newest), so here the estimates match the offline replay closely, not bit for bit.
+    (stamps, estimates), out, clock = play_through_observer(
+        bag, params, len(truth), '--rate', '2', '--wait-for', *ROBOT_TOPICS,
+        remap=[f'y:={ROBOT_TOPICS[0]}', f'u:={ROBOT_TOPICS[1]}'])
+    assert 'played 300 messages' in out and 'covering 1.490 s of bag time' in out
+    assert np.array_equal(stamps, offline.stamps_ns)
+    assert clock == offline.outputs.log_times_ns[-1]
+    assert np.array_equal(estimates[0], offline.estimates[0])
+    scale = np.abs(offline.estimates).max(axis=0)
+    assert (np.abs(estimates - offline.estimates).max(axis=0) < 1e-2 * scale).all()
+    error = np.linalg.norm(estimates - truth, axis=1)
+    assert error[-1] < 1e-2 * error.max()
+
+
+def test_robot_bag_paced_through_a_remapped_observer(tmp_path):
+    # Paced, the node never lags: each command is stamped between its log time and the
+    # next measurement's, which pairs it exactly as the offline replay does.
+    bag = tmp_path / 'robot'
+    write_robot_bag(bag, samples=100, storage='sqlite3')
+    params = robot_parameters(tmp_path)
+    offline = replay_bag(bag, params, *ROBOT_TOPICS)
+    (stamps, estimates), out, _ = play_through_observer(
+        bag, params, 100, '--paced-by', '/x_hat', '--trigger', ROBOT_TOPICS[0],
+        remap=[f'y:={ROBOT_TOPICS[0]}', f'u:={ROBOT_TOPICS[1]}'])
+    assert '100 answered, 0 unanswered' in out
+    assert np.array_equal(stamps, offline.stamps_ns)
+    assert np.array_equal(estimates, offline.estimates)
+
+
+def run_player(*args, timeout=60):
+    """Run ``play_bag`` to completion; return the CompletedProcess."""
+    return subprocess.run(['play_bag', *map(str, args)], capture_output=True, text=True,
+                          timeout=timeout)
+
+
+def one_error_line(result, *fragments):
+    """Assert exit status 2 and one ``play_bag: error:`` line holding every fragment."""
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith('play_bag: error: '), lines
+    for fragment in fragments:
+        assert fragment in lines[0], lines[0]
+
+
+def test_player_errors_name_the_bag_and_topic(tmp_path):
+    bag = tmp_path / 'robot'
+    write_robot_bag(bag, samples=20)
+    one_error_line(run_player(bag, '--topics', '/y'), 'no topic /y', '/joint_states (sensor')
+    one_error_line(run_player(bag, '--exclude', *ROBOT_TOPICS), 'nothing to play')
+    one_error_line(run_player(tmp_path / 'missing'), 'not a readable rosbag2 bag')
+    one_error_line(run_player(bag, '--paced-by', 'x_hat'),
+                   '--trigger: /y is not among the played topics')
+    one_error_line(run_player(bag, '--paced-by', '/joint_states', '--trigger',
+                              '/effort_controller/commands'), 'also played from the bag')
+    one_error_line(run_player(bag, '--rate', '0'), '--rate: expected a positive factor')
+    # Paced, with no node under test: a clear error after --wait, not a hang.
+    one_error_line(run_player(bag, '--paced-by', 'x_hat', '--trigger', '/joint_states',
+                              '--wait', '1'), 'nobody subscribed to /joint_states')
+    one_error_line(run_player(bag, '--wait-for', '/y'), '--wait-for: /y not among the played')
+    with pytest.raises(BagError, match='foo_msgs/msg/Bar is not installed here'):
+        message_class('foo_msgs/msg/Bar', '/t')
+
+
+def test_player_refuses_a_bag_shorter_than_its_metadata(tmp_path):
+    bag = tmp_path / 'robot'
+    write_robot_bag(bag, samples=20, storage='sqlite3')
+    metadata = bag / 'metadata.yaml'
+    metadata.write_text(metadata.read_text().replace('message_count: 20', 'message_count: 35',
+                                                     1))
+    one_error_line(run_player(bag, '--rate', '100', '--wait', '0'),
+                   'fewer messages than the metadata counts', ': 20 of 35')
+
+
+def test_playback_lists_topics_and_counts(tmp_path):
+    bag = tmp_path / 'robot'
+    write_robot_bag(bag, samples=20)
+    playback = Playback(bag, exclude=[ROBOT_TOPICS[1]])
+    try:
+        assert playback.topics == {'/joint_states': ('sensor_msgs/msg/JointState', 20)}
+        messages = list(playback.messages())
+    finally:
+        playback.close()
+    assert [m[0] for m in messages] == ['/joint_states'] * 20
+    assert [m[1] for m in messages] == sorted(m[1] for m in messages)
+    recorded = read_topic(bag, '/joint_states', 'joint_state', 'position', ['elbow'])
+    assert np.array_equal([m[1] for m in messages], recorded.log_times_ns)
