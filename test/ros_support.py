@@ -30,7 +30,7 @@ from sensor_msgs.msg import JointState
 
 from conftest import CONFIG_DIR
 from observer_ros.core.streaming import StreamEstimator
-from observer_ros.nodes.closed_loop import ClosedLoop
+from observer_ros.nodes.closed_loop import ClosedLoop, make_executor
 
 
 @contextmanager
@@ -112,11 +112,13 @@ def offline_estimates(system, recorder):
             np.array([s.estimate for s in samples]))
 
 
-def run_lockstep(config, samples, extra=(), reference=None, bag=None, storage='mcap'):
+def run_lockstep(config, samples, extra=(), reference=None, bag=None, storage='mcap',
+                 executor='single'):
     """Run the closed loop in lockstep; return (system, recorder arrays, plant counters)."""
     with ros_context('--params-file', str(CONFIG_DIR / config)) as context:
-        loop = ClosedLoop(record=True, context=context, overrides=overrides(
-            plant__lockstep=True, plant__samples=samples) + list(extra))
+        settings = overrides(plant__lockstep=True, plant__samples=samples) + list(extra)
+        loop = ClosedLoop(record=True, context=context,
+                          executor=make_executor(executor, context), overrides=settings)
         helper = None
         try:
             if reference is not None:

@@ -378,3 +378,17 @@ def test_place_never_returns_a_wrong_gain(problem):
     assert result.gain.shape == b.shape[::-1]
     assert np.all(np.isfinite(result.gain))
     assert_eigenvalues(a - b @ result.gain, poles, rtol=2e-6)
+
+
+def test_auto_takes_vargas_method_first_for_large_systems():
+    # The robust (Tits-Yang) iterations cost seconds per iteration at n = 100; above
+    # LARGE_STATES 'auto' starts with Varga's Schur method and still verifies the result.
+    rng = np.random.default_rng(5)
+    n, p = placement.LARGE_STATES + 6, 3
+    a = rng.standard_normal((n, n)) / np.sqrt(n) - 2.0 * np.eye(n)
+    c = rng.standard_normal((p, n))
+    poles = np.linalg.eigvals(a) - 0.5
+    result = placement.place_observer(a, c, poles)
+    assert result.method == 'varga' and result.residual <= 1e-6
+    np.testing.assert_allclose(match(np.linalg.eigvals(a - result.gain @ c), poles), poles,
+                               rtol=1e-6)

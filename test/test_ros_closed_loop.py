@@ -92,3 +92,14 @@ def test_ros2_control_style_float64_command_topic():
     assert counters.get('lockstep_timeouts', 0) == 0
     truth = arrays['x_true'][1]
     assert np.linalg.norm(truth[-1]) < 0.05 * np.linalg.norm(truth[0])
+
+
+def test_events_executor_runs_the_same_lockstep_loop():
+    # closed_loop --executor events: rclpy's EventsExecutor gives the very same run.
+    config = 'seed001_fourth_order_chen.yaml'
+    single = run_lockstep(config, samples=150)
+    events = run_lockstep(config, samples=150, executor='events')
+    assert events[3]['commands_on_time'] == 149
+    for topic in ('y', 'u', 'x_true', 'x_hat'):
+        assert np.array_equal(events[2][topic][0], single[2][topic][0]), topic
+        assert np.array_equal(events[2][topic][1], single[2][topic][1]), topic

@@ -33,7 +33,8 @@ from typing import Optional, Union
 
 import numpy as np
 
-from observer_ros.bags.storage import read_topic, TopicData, TopicToWrite, write_bag
+from observer_ros.bags.storage import (
+    read_topics, TopicData, TopicRequest, TopicToWrite, write_bag)
 from observer_ros.core.config import load_parameter_file, System, validate_parameters
 from observer_ros.core.evaluation import align
 from observer_ros.core.streaming import StreamEstimator
@@ -41,15 +42,20 @@ from observer_ros.core.streaming import StreamEstimator
 NANOSECONDS = 1_000_000_000
 
 
-def topic_data(path, system: System, key: str, topic: Optional[str] = None) -> TopicData:
-    """Read the bag topic playing role ``key`` (``y``, ``u``, ``x_true`` ...) of ``system``."""
+def topic_request(system: System, key: str, topic: Optional[str] = None) -> TopicRequest:
+    """Return what to read for the topic playing role ``key`` (``y``, ``u``, ``x_true`` ...)."""
     model = system.model
     names = {'y': model.output_names, 'u': model.input_names, 'u_cmd': model.input_names,
              'x_true': model.state_names, 'x_hat': model.state_names,
              'reference': model.output_names, 'innovation': model.output_names}[key]
     params = system.parameters
-    return read_topic(path, topic or key, params[f'topics.{key}.type'],
-                      params[f'topics.{key}.field'], names)
+    return TopicRequest(topic or key, params[f'topics.{key}.type'],
+                        params[f'topics.{key}.field'], names)
+
+
+def topic_data(path, system: System, key: str, topic: Optional[str] = None) -> TopicData:
+    """Read the bag topic playing role ``key`` of ``system``."""
+    return read_topics(path, [topic_request(system, key, topic)])[0]
 
 
 @dataclass
@@ -106,8 +112,8 @@ def replay_bag(bag: Union[str, os.PathLike], parameters: Union[str, os.PathLike,
         from observer_ros.core.errors import ConfigError
         raise ConfigError('observer.poles', 'replay needs an observer: observer.poles, '
                           'observer.gain or the Kalman noise covariances')
-    outputs = topic_data(bag, system, 'y', y_topic)
-    inputs = topic_data(bag, system, 'u', u_topic)
+    outputs, inputs = read_topics(bag, [topic_request(system, 'y', y_topic),
+                                        topic_request(system, 'u', u_topic)])
     stream = StreamEstimator(system.make_estimator(),
                              int(system.parameters['observer.max_gap'] * NANOSECONDS),
                              input_stamped=system.parameters['topics.u.type'] == 'joint_state')

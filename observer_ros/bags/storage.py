@@ -158,6 +158,16 @@ class Playback:
         self._reader.close()
 
 
+@dataclass(frozen=True)
+class TopicRequest:
+    """A vector topic to read: name, message kind, JointState field and joint names."""
+
+    topic: str
+    kind: str
+    field: str
+    names: Sequence[str]
+
+
 def read_topic(path, topic: str, kind: str, field: str, names: Sequence[str]) -> TopicData:
     """
     Read one vector topic.
@@ -181,37 +191,64 @@ def read_topic(path, topic: str, kind: str, field: str, names: Sequence[str]) ->
         messages, fewer messages than the metadata counts, or messages without the vector.
 
     """
-    topic = _absolute(topic)
-    expected = MESSAGE_TYPES[kind]
+    return read_topics(path, [TopicRequest(topic, kind, field, names)])[0]
+
+
+def read_topics(path, requests: Sequence[TopicRequest]) -> list:
+    """
+    Read several vector topics in one pass over the bag; see :func:`read_topic`.
+
+    Returns
+    -------
+    list of TopicData
+        In the order of ``requests``.
+
+    """
+    requests = [TopicRequest(_absolute(r.topic), r.kind, r.field, r.names) for r in requests]
     reader = _reader(path)
     try:
-        connections = [c for c in reader.connections if c.topic == topic]
-        if not connections:
-            present = ', '.join(f'{c.topic} ({c.msgtype})' for c in reader.connections)
-            raise BagError(f'{path}: no topic {topic}; the bag has '
-                           f'{present or "no topics (it is empty)"}')
-        types = {c.msgtype for c in connections}
-        if types != {expected}:
-            raise BagError(f'{path}: topic {topic} holds {", ".join(sorted(types))}, expected '
-                           f'{expected} (set topics.<topic>.type to match)')
-        counted = sum(c.msgcount for c in connections)
-        log_times, raws = [], []
-        for _, log_time, raw in reader.messages(connections=connections):
-            log_times.append(log_time)
+        by_topic = {}
+        for request in requests:
+            connections = [c for c in reader.connections if c.topic == request.topic]
+            if not connections:
+                present = ', '.join(f'{c.topic} ({c.msgtype})' for c in reader.connections)
+                raise BagError(f'{path}: no topic {request.topic}; the bag has '
+                               f'{present or "no topics (it is empty)"}')
+            types = {c.msgtype for c in connections}
+            expected = MESSAGE_TYPES[request.kind]
+            if types != {expected}:
+                raise BagError(f'{path}: topic {request.topic} holds '
+                               f'{", ".join(sorted(types))}, expected {expected} (set '
+                               f'topics.<topic>.type to match)')
+            by_topic[request.topic] = connections
+        wanted = [c for connections in by_topic.values() for c in connections]
+        collected = {topic: ([], []) for topic in by_topic}
+        for connection, log_time, raw in reader.messages(connections=wanted):
+            times, raws = collected[connection.topic]
+            times.append(log_time)
             raws.append(raw)
     except BagError:
         raise
     except Exception as e:
-        raise BagError(f'{path}: cannot read topic {topic} ({e})') from e
+        raise BagError(f'{path}: cannot read topics {", ".join(r.topic for r in requests)} '
+                       f'({e})') from e
     finally:
         reader.close()
+    return [_decoded(path, request, by_topic[request.topic], *collected[request.topic])
+            for request in requests]
+
+
+def _decoded(path, request: TopicRequest, connections, log_times: list,
+             raws: list) -> TopicData:
+    topic, names = request.topic, request.names
+    counted = sum(c.msgcount for c in connections)
     if not raws:
         raise BagError(f'{path}: topic {topic} has no messages' + (
             f' although the metadata counts {counted}' if counted else ''))
     if counted and len(raws) != counted:
         raise BagError(f'{path}: topic {topic}: read {len(raws)} messages but the metadata '
                        f'counts {counted}; the bag is damaged or its QoS records disagree')
-    stamps, values, errors = decode(raws, kind, field, names)
+    stamps, values, errors = decode(raws, request.kind, request.field, names)
     if errors:
         index, reason = next(iter(sorted(errors.items())))
         raise BagError(f'{path}: topic {topic}: {len(errors)} of {len(raws)} messages do not '

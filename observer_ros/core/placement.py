@@ -24,6 +24,8 @@ Methods
 ``'place'``
     Robust eigenstructure assignment (Kautsky-Nichols-Van Dooren / Tits-Yang, through
     :func:`scipy.signal.place_poles`). Refuses poles repeated more than ``rank(B)`` times.
+    Each robustness iteration costs O(n^3) in Python loops (seconds at n = 100), so above
+    :data:`LARGE_STATES` states only :data:`LARGE_MAXITER` are made.
 ``'varga'``
     Varga's Schur method (SLICOT ``SB01BD`` through :func:`control.place_varga`), which
     handles repeated poles.
@@ -35,7 +37,8 @@ Methods
 ``'canonical'``
     Bass-Gura, through the controllable canonical form, single input.
 ``'auto'``
-    Try the suitable methods in a sensible order and return the first verified gain.
+    Try the suitable methods in a sensible order and return the first verified gain
+    (Varga's first above :data:`LARGE_STATES` states: a fraction of a second at n = 100).
 """
 
 from dataclasses import dataclass, replace
@@ -62,6 +65,11 @@ REPEATED_RTOL = 1e-6
 
 #: Above this many states the single-input closed forms are not tried by ``'auto'``.
 CLOSED_FORM_MAX_STATES = 12
+
+#: Above this many states ``'auto'`` tries Varga's method first and ``'place'`` iterates
+#: only :data:`LARGE_MAXITER` times.
+LARGE_STATES = 24
+LARGE_MAXITER = 3
 
 
 @dataclass(frozen=True)
@@ -208,7 +216,8 @@ def _canonical(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
 
 
 def _scipy_place(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
-    result = scipy.signal.place_poles(a, b, poles, method='YT', maxiter=50)
+    maxiter = 50 if a.shape[0] <= LARGE_STATES else LARGE_MAXITER
+    result = scipy.signal.place_poles(a, b, poles, method='YT', maxiter=maxiter)
     return np.asarray(result.gain_matrix)
 
 
@@ -232,11 +241,12 @@ def _candidates(method: str, n_states: int, n_inputs: int, poles: np.ndarray) ->
     if method != 'auto':
         return [method]
     if n_inputs == 1:
-        order = ['varga', 'place'] if has_repeated(poles) else ['place', 'varga']
+        order = (['varga', 'place'] if has_repeated(poles) or n_states > LARGE_STATES
+                 else ['place', 'varga'])
         if n_states <= CLOSED_FORM_MAX_STATES:
             order.append('acker')
         return order
-    if max_multiplicity(poles) > n_inputs:
+    if max_multiplicity(poles) > n_inputs or n_states > LARGE_STATES:
         return ['varga', 'place']
     return ['place', 'varga']
 

@@ -69,6 +69,7 @@ class ClosedLoop:
             for node in self.nodes:
                 node.destroy_node()
             raise
+        self.context = context
         self.executor = executor or SingleThreadedExecutor(context=context)
         for node in self.nodes:
             self.executor.add_node(node)
@@ -78,7 +79,8 @@ class ClosedLoop:
         if self.plant.samples:
             self.executor.spin_until_future_complete(self.plant.finished, timeout_sec)
             return self.plant.finished.done()
-        self.executor.spin()
+        while rclpy.ok(context=self.context):  # spin_once: see EventsExecutor in README
+            self.executor.spin_once(timeout_sec=0.1)
         return False
 
     def destroy(self) -> None:
@@ -107,6 +109,14 @@ class ClosedLoop:
         return str(write_bag(path, topics, storage))
 
 
+def make_executor(name: str, context=None):
+    """Return rclpy's EventsExecutor for ``'events'``, None (the default) for ``'single'``."""
+    if name == 'events':
+        from rclpy.experimental import EventsExecutor
+        return EventsExecutor(context=context)
+    return None
+
+
 def main(args=None) -> int:
     """Entry point of ``ros2 run observer_ros closed_loop``."""
     argv = sys.argv if args is None else args
@@ -118,12 +128,16 @@ def main(args=None) -> int:
                         help='write y, u, u_cmd, x_true and x_hat to a new rosbag2 bag at the end')
     parser.add_argument('--storage', choices=STORAGES, default='mcap',
                         help='bag storage for --record (default: mcap)')
+    parser.add_argument('--executor', choices=('single', 'events'), default='single',
+                        help="'events': rclpy's experimental EventsExecutor, about 2.7x the "
+                        'lockstep speed (see BENCHMARKS.md); default: SingleThreadedExecutor')
     options = parser.parse_args(remove_ros_args(argv)[1:])
     if options.record and os.path.exists(options.record):
         parser.error(f'--record: {options.record} exists already')
     rclpy.init(args=argv)
     try:
-        loop = ClosedLoop(record=options.report is not None or options.record is not None)
+        loop = ClosedLoop(record=options.report is not None or options.record is not None,
+                          executor=make_executor(options.executor))
     except (ConfigError, DesignError) as e:
         print(f'closed_loop: error: {e}', file=sys.stderr)
         rclpy.try_shutdown()

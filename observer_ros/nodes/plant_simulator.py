@@ -114,6 +114,8 @@ class PlantSimulatorNode(ConfiguredNode):
             applied = self.simulator.saturate(np.zeros(self.simulator.model.n_inputs))
         else:
             applied = self.simulator.saturate(self.command)
+            if 'first_command_sample' not in self.counters:
+                self.counters['first_command_sample'] = self.index
             if self.command_stamp == self.stamp_ns - self.period_ns:
                 self.counters['commands_on_time'] += 1
         self.applied = applied
@@ -124,7 +126,11 @@ class PlantSimulatorNode(ConfiguredNode):
     def _finish_if_done(self) -> bool:
         if self.samples and self.index >= self.samples:
             if not self.finished.done():
-                self.get_logger().info(f'simulated {self.index} samples')
+                counters = self.counters
+                self.get_logger().info(
+                    f'simulated {self.index} samples; {counters["commands_on_time"]} applied '
+                    f'the command computed from the previous sample (first command at sample '
+                    f'{counters.get("first_command_sample", "none")})')
                 self.finished.set_result(self.index)
             return True
         return False

@@ -1,0 +1,144 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+5. Closed loop: the highest real-time rate, and the lockstep simulation speed.
+
+At each rate the plant counts the samples that apply the command computed from the
+previous sample (``commands_on_time``), from the first command on (discovery takes the
+first few). Three processes (the console scripts), and the one-process ``closed_loop``
+(the three nodes on one executor). Lockstep: the plant waits for each command, on
+simulated time.
+"""
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+
+import rclpy
+from rclpy.parameter import Parameter
+
+from benchmarks.common import CONFIG_DIR, pyplot, Section
+from observer_ros.nodes.closed_loop import ClosedLoop, make_executor
+
+CONFIG = CONFIG_DIR / 'seed003_full_order.yaml'
+LOG = re.compile(r'simulated (\d+) samples; (\d+) applied .*first command at sample (\w+)')
+
+
+def on_time_fraction(samples: int, on_time: int, first: int) -> float:
+    """Share of the samples after the first command that applied the previous one's."""
+    return on_time / max(1, samples - first)
+
+
+def one_process(rate: float, seconds: float, lockstep: bool = False,
+                executor: str = 'single'):
+    """Run ``ClosedLoop`` on ``executor``; return ``(fraction on time, samples, wall s)``."""
+    samples = int(rate * seconds)
+    context = rclpy.Context()
+    rclpy.init(args=['bench', '--ros-args', '--params-file', str(CONFIG)], context=context)
+    overrides = [Parameter('plant.rate_hz', value=float(rate)),
+                 Parameter('plant.samples', value=samples),
+                 Parameter('plant.lockstep', value=lockstep)]
+    loop = ClosedLoop(context=context, overrides=overrides,
+                      executor=make_executor(executor, context))
+    try:
+        started = time.perf_counter()
+        assert loop.spin(timeout_sec=seconds * 20 + 30), 'the closed loop did not finish'
+        wall = time.perf_counter() - started
+        counters = loop.plant.counters
+        return (on_time_fraction(counters['samples'], counters['commands_on_time'],
+                                 counters.get('first_command_sample', samples)),
+                counters['samples'], wall)
+    finally:
+        loop.destroy()
+        rclpy.try_shutdown(context=context)
+
+
+def three_processes(rate: float, seconds: float) -> float:
+    """Observer, state_feedback and plant_simulator as processes; the on-time fraction."""
+    samples = int(rate * seconds)
+    common = ['--ros-args', '--params-file', str(CONFIG)]
+    bin_dir = os.path.dirname(sys.executable)
+
+    def start(name, *extra):
+        return subprocess.Popen([os.path.join(bin_dir, name), *common, *extra],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+    helpers = [start('observer'), start('state_feedback')]
+    try:
+        time.sleep(1.0)
+        plant = start('plant_simulator', '-p', f'plant.rate_hz:={float(rate)}',
+                      '-p', f'plant.samples:={samples}')
+        _, err = plant.communicate(timeout=seconds * 5 + 60)
+    finally:
+        for helper in helpers:
+            helper.send_signal(signal.SIGINT)
+        for helper in helpers:
+            try:
+                helper.communicate(timeout=10)
+            except subprocess.TimeoutExpired:
+                helper.kill()
+    found = LOG.search(err)
+    if not found:
+        raise RuntimeError(f'plant_simulator did not report its counts: {err[-300:]}')
+    done, on_time, first = found.groups()
+    return 0.0 if first == 'none' else on_time_fraction(int(done), int(on_time), int(first))
+
+
+def run(smoke: bool, figures) -> Section:
+    """Measure and return the section."""
+    section = Section(5, 'Closed loop: real-time rate and lockstep speed',
+                      '1 kHz real time on a two-core machine (99 % of samples apply the '
+                      'command computed from the previous sample)')
+    rates = [100.0] if smoke else [100.0, 250.0, 500.0, 1000.0, 2000.0]
+    seconds = 1.5 if smoke else 4.0
+    fractions = {'one process, single': [], 'one process, events': [],
+                 'three processes': []}
+    for rate in rates:
+        fractions['one process, single'].append(one_process(rate, seconds)[0])
+        fractions['one process, events'].append(
+            one_process(rate, seconds, executor='events')[0])
+        fractions['three processes'].append(three_processes(rate, seconds))
+    rows = [[f'{rate:g}', *(f'{100 * fractions[kind][i]:.1f} %' for kind in fractions)]
+            for i, rate in enumerate(rates)]
+    section.add(f'seed 003 (full-order observer and state feedback), {seconds:g} s per rate; '
+                'share of the samples (after the first command) that applied the command '
+                'computed from the previous sample.', '')
+    section.table(['rate (Hz)', 'closed_loop (SingleThreadedExecutor)',
+                   'closed_loop --executor events', 'three processes'], rows)
+    highest = {kind: max((rate for rate, f in zip(rates, values) if f >= 0.99), default=0.0)
+               for kind, values in fractions.items()}
+    lockstep_samples = 300 if smoke else 3000
+    section.add('Highest rate with at least 99 % on time: ' + ', '.join(
+        f'{kind} {rate:g} Hz' for kind, rate in highest.items()) + '.', '')
+    for executor in ('single', 'events'):
+        _, done, wall = one_process(100.0, lockstep_samples / 100.0, lockstep=True,
+                                    executor=executor)
+        section.add(f'Lockstep, one process, {executor} executor (100 Hz model): {done} '
+                    f'samples in {wall:.2f} s, {done / wall:,.0f} samples/s, real-time factor '
+                    f'{done / wall / 100.0:.1f}.', '')
+    section.met = max(highest.values()) >= 1000.0
+    plt = pyplot()
+    figure, axis = plt.subplots(figsize=(7, 3.5))
+    for kind, values in fractions.items():
+        axis.semilogx(rates, [100 * f for f in values], 'o-', label=kind)
+    axis.axhline(99.0, color='k', linestyle='--', label='99 %')
+    axis.set_xlabel('plant rate (Hz)')
+    axis.set_ylabel('samples on time (%)')
+    axis.legend()
+    section.figures.append(figures.save(figure, 'closed_loop_rate'))
+    return section

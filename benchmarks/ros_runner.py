@@ -1,0 +1,76 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Spin the observer node, or a bare relay, on a chosen executor (benchmark 4).
+
+``python -m benchmarks.ros_runner observer|relay single|multi|events --ros-args ...``
+"""
+
+import sys
+
+import rclpy
+from rclpy.executors import (
+    ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor)
+from rclpy.node import Node
+from rclpy.utilities import remove_ros_args
+from sensor_msgs.msg import JointState
+
+from observer_ros.nodes.observer import ObserverNode
+from observer_ros.ros.parameters import PUBLISHER_QOS, SUBSCRIPTION_QOS
+
+
+class Relay(Node):
+    """Subscribe ``y``, copy the JointState, publish it on ``relay``: the floor of latency."""
+
+    def __init__(self) -> None:
+        super().__init__('relay')
+        self.publisher = self.create_publisher(JointState, 'relay', PUBLISHER_QOS)
+        self.create_subscription(JointState, 'y', self._on_message, SUBSCRIPTION_QOS)
+
+    def _on_message(self, message: JointState) -> None:
+        self.publisher.publish(JointState(header=message.header, name=list(message.name),
+                                          position=list(message.position)))
+
+
+def make_executor(name: str):
+    """Return the executor called ``name`` (``single``, ``multi`` or ``events``)."""
+    if name == 'events':
+        from rclpy.experimental import EventsExecutor
+        return EventsExecutor()
+    return MultiThreadedExecutor() if name == 'multi' else SingleThreadedExecutor()
+
+
+def main() -> int:
+    """Spin until interrupted."""
+    node_kind, executor_name = remove_ros_args(sys.argv)[1:3]
+    rclpy.init(args=sys.argv)
+    node = ObserverNode() if node_kind == 'observer' else Relay()
+    executor = make_executor(executor_name)
+    executor.add_node(node)
+    try:
+        # spin_once in a loop for every executor: in the rclpy 7.1 wheels,
+        # EventsExecutor.spin() stops delivering messages from other processes.
+        while rclpy.ok():
+            executor.spin_once(timeout_sec=0.1)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

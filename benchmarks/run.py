@@ -1,0 +1,92 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Run the benchmark suite and write ``BENCHMARKS.md`` with its figures.
+
+``python -m benchmarks.run [--smoke] [--only N [N ...]] [--output DIR]`` (or
+``./scripts/benchmark.sh``). Each section measures the package against its baseline in the
+same run and reports ratios; ``--smoke`` runs every section on tiny sizes in seconds (CI).
+"""
+
+import argparse
+import datetime
+import importlib
+import os
+from pathlib import Path
+import platform
+import sys
+import time
+import warnings
+
+from benchmarks.common import Figures, REPOSITORY
+
+#: Section number -> module.
+SECTIONS = {1: 'design', 2: 'update', 3: 'throughput', 4: 'ros_latency', 5: 'closed_loop',
+            6: 'noise', 7: 'scale'}
+
+
+def environment() -> str:
+    """One line about the machine and the library versions."""
+    import control
+    import numpy
+    import scipy
+    versions = f'numpy {numpy.__version__}, scipy {scipy.__version__}, ' \
+               f'python-control {control.__version__}'
+    return (f'{platform.machine()}, {os.cpu_count()} CPUs, Python '
+            f'{platform.python_version()}, {versions}, RMW '
+            f'{os.environ.get("RMW_IMPLEMENTATION", "default (Fast DDS)")}')
+
+
+def main(args=None) -> int:
+    """Run the selected sections and write the report."""
+    parser = argparse.ArgumentParser(prog='benchmarks.run', description=__doc__.splitlines()[1])
+    parser.add_argument('--smoke', action='store_true', help='tiny sizes, seconds (CI)')
+    parser.add_argument('--only', type=int, nargs='+', choices=sorted(SECTIONS),
+                        metavar='N', help='run only these sections')
+    parser.add_argument('--output', default=str(REPOSITORY), metavar='DIR',
+                        help='where BENCHMARKS.md and benchmarks/figures/ go (default: the '
+                        'repository)')
+    options = parser.parse_args(args)
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    os.environ.setdefault('MPLBACKEND', 'Agg')
+    warnings.simplefilter('ignore')
+    root = Path(options.output).resolve()
+    figures = Figures(root, root / 'benchmarks' / 'figures')
+    sections = []
+    for number in options.only or sorted(SECTIONS):
+        module = importlib.import_module(f'benchmarks.{SECTIONS[number]}')
+        started = time.perf_counter()
+        print(f'[{number}] {SECTIONS[number]} ...', flush=True)
+        section = module.run(options.smoke, figures)
+        print(f'[{number}] done in {time.perf_counter() - started:.1f} s: goal '
+              f'{ {True: "met", False: "NOT met", None: "measured"}[section.met]}', flush=True)
+        sections.append(section)
+    summary = ['| section | goal | result |', '|---|---|---|']
+    summary += [f'| {s.number}. {s.title} | {s.goal} | '
+                f'{ {True: "met", False: "**not met**", None: "measured"}[s.met]} |'
+                for s in sections]
+    text = ['# Benchmarks', '',
+            f'Written by `{" ".join(["python -m benchmarks.run", *(args or sys.argv[1:])])}` '
+            f'on {datetime.date.today().isoformat()}{" (smoke run)" if options.smoke else ""}'
+            f'; {environment()}. Absolute times vary between machines; each comparison is '
+            'measured in the same run against its baseline.', '', *summary, '',
+            *(section.markdown() for section in sections)]
+    (root / 'BENCHMARKS.md').write_text('\n'.join(text), encoding='utf-8')
+    print(f'wrote {root / "BENCHMARKS.md"}')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

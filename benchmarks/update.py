@@ -1,0 +1,188 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+2. Estimator update cost against a bare numpy loop and filterpy's KalmanFilter.
+
+``Estimator.update`` is what the observer node calls per measurement: it checks ``y`` and
+``u`` (sizes, finite), the stamp, and looks the step matrices up by interval. At a steady
+rate the lookup hits; with jittered stamps every interval is new, so each update
+discretizes the model and designs the discrete observer (placement or Riccati) again.
+"""
+
+import numpy as np
+
+from benchmarks.common import per_call, pyplot, random_stable_system, Section
+from observer_ros.core.design.chen import design_chen
+from observer_ros.core.design.full_order import design_full_order
+from observer_ros.core.design.kalman import design_kalman
+from observer_ros.core.design.reduced_order import (
+    design_reduced_order, measured_first_transform, partition_model)
+from observer_ros.core.discretize import van_loan, zero_order_hold
+from observer_ros.core.errors import DesignError
+from observer_ros.core.estimators import make_estimator
+from observer_ros.core.model import StateSpaceModel
+
+PERIOD_NS = 10_000_000
+TYPES = ('full_order', 'reduced_order', 'chen', 'kalman')
+
+#: Above this size a jittered update of a placement-based observer (one pole placement of
+#: the sampled model per new interval) takes seconds; it is not timed.
+JITTER_PLACEMENT_MAX = 64
+
+
+def outputs_for(n: int) -> int:
+    """Return the outputs used at ``n`` states (one per eight states, at least one)."""
+    return max(1, n // 8)
+
+
+def make_design(kind: str, model: StateSpaceModel):
+    """
+    Design an observer of ``kind`` for ``model``.
+
+    The poles are those of a Kalman filter of the same error dynamics (full order: of
+    ``(A, C)``; reduced order and Chen: of the unmeasured block ``(Abb, Aab)``), which any
+    size reaches with a moderate gain: the timing does not depend on the poles.
+    """
+    n, p = model.n_states, model.n_outputs
+    if kind == 'kalman':
+        return design_kalman(model, np.ones(n), np.full(p, 0.01))
+    if kind == 'full_order':
+        return design_full_order(model, design_kalman(model, np.ones(n),
+                                                      np.full(p, 0.01)).achieved_poles)
+    blocks = partition_model(model, measured_first_transform(model, 'orthonormal'))
+    reduced = StateSpaceModel(a=blocks.abb, b=blocks.bb, c=blocks.aab,
+                              d=np.zeros((p, model.n_inputs)))
+    poles = design_kalman(reduced, np.ones(n - p), np.full(p, 0.01)).achieved_poles
+    if kind == 'chen':
+        return design_chen(model, poles)
+    return design_reduced_order(model, poles)
+
+
+def measure(kind: str, n: int, smoke: bool, rng) -> dict:
+    """Microseconds per update: steady, jittered, numpy loop and (Kalman) filterpy."""
+    p = outputs_for(n)
+    a, b, c = random_stable_system(rng, n, 1, p)
+    model = StateSpaceModel(a=a, b=b, c=c, d=np.zeros((p, 1)))
+    try:
+        design = make_design(kind, model)
+    except DesignError as e:
+        return {'n': n, 'p': p, 'kind': kind, 'error': str(e).split(':')[0][:80]}
+    count = 200 if smoke else (5000 if n <= 16 else 1000)
+    ys = rng.standard_normal((count + 1, p))
+    us = rng.standard_normal((count + 1, 1))
+    estimator = make_estimator(design)
+    state = {'k': 0, 'stamp': 0}
+
+    def steady():
+        k = state['k'] = state['k'] + 1
+        state['stamp'] += PERIOD_NS
+        estimator.update(state['stamp'], ys[k % count], us[k % count])
+
+    steady()
+    steady()
+    result = {'n': n, 'p': p, 'kind': kind,
+              'steady': per_call(steady, count) * 1e6}
+    g = estimator.last_step.g
+    x = estimator.estimate
+    cell = {'x': x}
+
+    def numpy_loop():
+        k = state['k'] = state['k'] + 1
+        cell['x'] = (g @ np.concatenate((cell['x'], us[k % count], ys[k % count])))[:n]
+
+    result['numpy'] = per_call(numpy_loop, count) * 1e6
+    jitter = rng.integers(-PERIOD_NS // 10, PERIOD_NS // 10, size=10_000)
+
+    def jittered():
+        k = state['k'] = state['k'] + 1
+        state['stamp'] += PERIOD_NS + int(jitter[k % len(jitter)])
+        estimator.update(state['stamp'], ys[k % count], us[k % count])
+
+    if n <= 16 or kind == 'kalman' or n <= JITTER_PLACEMENT_MAX:
+        jitter_count = 5 if smoke else (100 if n <= 16 else 2)
+        result['jittered'] = per_call(jittered, jitter_count, rounds=1) * 1e6
+    if kind == 'kalman':
+        result['filterpy'] = filterpy_cost(model, design, ys, us, count)
+    return result
+
+
+def filterpy_cost(model, design, ys, us, count) -> float:
+    """Microseconds per ``predict(u)`` + ``update(y)`` of filterpy's KalmanFilter."""
+    from filterpy.kalman import KalmanFilter
+    dt = PERIOD_NS / 1e9
+    ad, bd = zero_order_hold(model.a, model.b, dt)
+    n, p = model.n_states, model.n_outputs
+    kf = KalmanFilter(dim_x=n, dim_z=p, dim_u=1)
+    kf.F, kf.B, kf.H = ad, bd, model.c
+    kf.Q = van_loan(model.a, design.process_noise, dt)
+    kf.R = design.measurement_noise
+    state = {'k': 0}
+
+    def step():
+        k = state['k'] = state['k'] + 1
+        kf.predict(u=us[k % count])
+        kf.update(ys[k % count])
+
+    return per_call(step, count) * 1e6
+
+
+def run(smoke: bool, figures) -> Section:
+    """Measure and return the section."""
+    section = Section(2, 'Estimator update cost', 'at n = 4, at least 3x faster than filterpy '
+                      'per update at a steady rate (Kalman)')
+    sizes = [2, 4] if smoke else [2, 4, 8, 16, 64, 128]
+    rng = np.random.default_rng(7)
+    results = [measure(kind, n, smoke, rng) for n in sizes for kind in TYPES]
+    rows = []
+    for r in results:
+        if 'error' in r:
+            rows.append([r['n'], r['p'], r['kind'], f'design refused: {r["error"]}', '', '', '',
+                         ''])
+            continue
+        filterpy = r.get('filterpy')
+        rows.append([r['n'], r['p'], r['kind'], f'{r["steady"]:.2f}', f'{r["numpy"]:.2f}',
+                     f'{r["jittered"]:.0f}' if 'jittered' in r else 'seconds (not timed)',
+                     f'{filterpy:.1f}' if filterpy else '-',
+                     f'{filterpy / r["steady"]:.1f}x' if filterpy else '-'])
+    section.add('Random stable continuous models, p = max(1, n / 8) outputs, one input, '
+                f'{PERIOD_NS // 1_000_000} ms period. "numpy loop": `x = (G @ '
+                'concatenate((x, u, y)))[:n]` with the same step matrix, no checks. Jittered: '
+                'every interval differs (+-10 %), so every update re-discretizes and '
+                're-designs. Best of three rounds.', '')
+    section.table(['n', 'p', 'observer', 'steady us/update', 'numpy loop us', 'jittered us',
+                   'filterpy us', 'filterpy / steady'], rows)
+    kalman4 = next((r for r in results if r['kind'] == 'kalman' and r['n'] == 4), None)
+    section.met = bool(kalman4 and kalman4['filterpy'] / kalman4['steady'] >= 3.0)
+    plt = pyplot()
+    figure, axis = plt.subplots(figsize=(7, 4.5))
+    for kind, colour in zip(TYPES, ('C0', 'C1', 'C2', 'C3')):
+        points = [r for r in results if r['kind'] == kind and 'error' not in r]
+        if points:
+            axis.loglog([r['n'] for r in points], [r['steady'] for r in points], 'o-',
+                        color=colour, label=f'{kind} steady')
+            jittered = [r for r in points if 'jittered' in r]
+            axis.loglog([r['n'] for r in jittered], [r['jittered'] for r in jittered], 'x:',
+                        color=colour, label=f'{kind} jittered')
+    kalman = [r for r in results if r['kind'] == 'kalman' and 'filterpy' in r]
+    axis.loglog([r['n'] for r in kalman], [r['filterpy'] for r in kalman], 's--', color='k',
+                label='filterpy KalmanFilter')
+    full = [r for r in results if r['kind'] == 'full_order' and 'numpy' in r]
+    axis.loglog([r['n'] for r in full], [r['numpy'] for r in full], 'd--', color='grey',
+                label='numpy loop')
+    axis.set_xlabel('n (states)')
+    axis.set_ylabel('microseconds per update')
+    axis.legend(fontsize=7, ncol=2)
+    section.figures.append(figures.save(figure, 'update_cost'))
+    return section

@@ -1,0 +1,50 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""The benchmark suite runs end to end on tiny sizes and writes a complete report."""
+
+import re
+import subprocess
+import sys
+
+from conftest import REPOSITORY
+
+
+def test_smoke_run_writes_every_section_and_figure(tmp_path):
+    result = subprocess.run([sys.executable, '-m', 'benchmarks.run', '--smoke', '--output',
+                             str(tmp_path)], cwd=REPOSITORY, capture_output=True, text=True,
+                            timeout=300)
+    assert result.returncode == 0, result.stderr[-2000:]
+    report = (tmp_path / 'BENCHMARKS.md').read_text(encoding='utf-8')
+    headings = re.findall(r'^## (\d)\. ', report, flags=re.MULTILINE)
+    assert headings == [str(n) for n in range(1, 8)]
+    assert '(smoke run)' in report
+    figures = re.findall(r'!\[[^]]*\]\(([^)]+)\)', report)
+    assert len(figures) == 6
+    for figure in figures:
+        assert (tmp_path / figure).stat().st_size > 1000, figure
+    # Every table row is complete: no section lost its numbers.
+    for line in report.splitlines():
+        if line.startswith('| ') and 'design refused' not in line:
+            assert 'nan' not in line.lower(), line
+
+
+def test_only_runs_the_chosen_sections(tmp_path):
+    result = subprocess.run([sys.executable, '-m', 'benchmarks.run', '--smoke', '--only', '6',
+                             '--output', str(tmp_path)], cwd=REPOSITORY, capture_output=True,
+                            text=True, timeout=120)
+    assert result.returncode == 0, result.stderr[-2000:]
+    report = (tmp_path / 'BENCHMARKS.md').read_text(encoding='utf-8')
+    assert re.findall(r'^## (\d)\. ', report, flags=re.MULTILINE) == ['6']
+    assert 'Kalman MSE / trace(P)' in report and 'ratio **' in report
