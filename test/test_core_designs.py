@@ -41,7 +41,8 @@ from observer_ros.core.design.controller import (
 from observer_ros.core.design.feedback import design_feedback
 from observer_ros.core.design.full_order import design_full_order
 from observer_ros.core.design.kalman import design_kalman, design_sampled_kalman
-from observer_ros.core.design.reduced_order import design_reduced_order
+from observer_ros.core.design.reduced_order import (
+    design_reduced_order, measured_first_transform, partition_model)
 from observer_ros.core.discretize import van_loan, zero_order_hold
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.model import StateSpaceModel
@@ -660,3 +661,19 @@ def test_from_matrices_refuses_wrong_shapes(b, c, d, parameter):
     # a (3, 2) matrix with scrambled entries.
     with pytest.raises(ConfigError, match=parameter):
         StateSpaceModel.from_matrices(np.eye(3), b, c, d)
+
+
+def test_chen_draws_its_gain_for_large_models():
+    # The Krylov rank test refused every random L beyond about 14 states; PBH does not.
+    # Poles: a Kalman filter's for the unmeasured block, which keeps [C; T] well conditioned.
+    rng = np.random.default_rng(8)
+    n, p = 40, 4
+    a = rng.standard_normal((n, n)) / np.sqrt(n) - 2.0 * np.eye(n)
+    model = StateSpaceModel(a=a, b=rng.standard_normal((n, 1)), c=rng.standard_normal((p, n)),
+                            d=np.zeros((p, 1)))
+    blocks = partition_model(model, measured_first_transform(model, 'orthonormal'))
+    poles = design_kalman(StateSpaceModel(a=blocks.abb, b=blocks.bb, c=blocks.aab,
+                                          d=np.zeros((p, 1))),
+                          np.ones(n - p), np.full(p, 0.01)).achieved_poles
+    design = design_chen(model, poles)
+    np.testing.assert_allclose(match(np.linalg.eigvals(design.f), poles), poles, rtol=1e-8)
