@@ -21,14 +21,13 @@ Spin the observer node, or a bare relay, on a chosen executor (benchmark 4).
 import sys
 
 import rclpy
-from rclpy.executors import (
-    ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor)
+from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
 from sensor_msgs.msg import JointState
 
 from observer_ros.nodes.observer import ObserverNode
-from observer_ros.ros.parameters import PUBLISHER_QOS, SUBSCRIPTION_QOS
+from observer_ros.ros.parameters import PUBLISHER_QOS, run_node, SUBSCRIPTION_QOS
 
 
 class Relay(Node):
@@ -55,21 +54,17 @@ def make_executor(name: str):
 def main() -> int:
     """Spin until interrupted."""
     node_kind, executor_name = remove_ros_args(sys.argv)[1:3]
-    rclpy.init(args=sys.argv)
-    node = ObserverNode() if node_kind == 'observer' else Relay()
-    executor = make_executor(executor_name)
-    executor.add_node(node)
-    try:
+
+    def spin(node) -> None:
+        executor = make_executor(executor_name)
+        executor.add_node(node)
         # spin_once in a loop for every executor: in the rclpy 7.1 wheels,
         # EventsExecutor.spin() stops delivering messages from other processes.
         while rclpy.ok():
             executor.spin_once(timeout_sec=0.1)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+
+    return run_node(ObserverNode if node_kind == 'observer' else Relay, 'ros_runner',
+                    sys.argv, spin=spin)
 
 
 if __name__ == '__main__':

@@ -18,6 +18,7 @@ Run the benchmark suite and write ``BENCHMARKS.md`` with its figures.
 ``python -m benchmarks.run [--smoke] [--only N [N ...]] [--output DIR]`` (or
 ``./scripts/benchmark.sh``). Each section measures the package against its baseline in the
 same run and reports ratios; ``--smoke`` runs every section on tiny sizes in seconds (CI).
+``--only`` replaces those sections in an existing report and keeps the others.
 """
 
 import argparse
@@ -26,6 +27,7 @@ import importlib
 import os
 from pathlib import Path
 import platform
+import re
 import sys
 import time
 import warnings
@@ -47,6 +49,17 @@ def environment() -> str:
     return (f'{platform.machine()}, {os.cpu_count()} CPUs, Python '
             f'{platform.python_version()}, {versions}, RMW '
             f'{os.environ.get("RMW_IMPLEMENTATION", "default (Fast DDS)")}')
+
+
+def previous_sections(text: str) -> tuple:
+    """Summary rows and section bodies of an existing report, by section number."""
+    rows = {int(m.group(1)): m.group(0)
+            for m in re.finditer(r'^\| (\d)\. .*\|$', text, flags=re.MULTILINE)}
+    bodies = {}
+    parts = re.split(r'^(?=## \d\. )', text, flags=re.MULTILINE)
+    for part in parts[1:]:
+        bodies[int(part[3])] = part.rstrip() + '\n'
+    return rows, bodies
 
 
 def main(args=None) -> int:
@@ -73,17 +86,28 @@ def main(args=None) -> int:
         print(f'[{number}] done in {time.perf_counter() - started:.1f} s: goal '
               f'{ {True: "met", False: "NOT met", None: "measured"}[section.met]}', flush=True)
         sections.append(section)
-    summary = ['| section | goal | result |', '|---|---|---|']
-    summary += [f'| {s.number}. {s.title} | {s.goal} | '
-                f'{ {True: "met", False: "**not met**", None: "measured"}[s.met]} |'
-                for s in sections]
+    rows = {s.number: f'| {s.number}. {s.title} | {s.goal} | '
+            f'{ {True: "met", False: "**not met**", None: "measured"}[s.met]} |'
+            for s in sections}
+    bodies = {s.number: s.markdown() for s in sections}
+    report = root / 'BENCHMARKS.md'
+    notes = []
+    if options.only and report.exists():
+        # Keep the sections not run now from the existing report.
+        old_rows, old_bodies = previous_sections(report.read_text(encoding='utf-8'))
+        kept = sorted(set(old_bodies) - set(bodies))
+        rows = {**{k: old_rows[k] for k in kept if k in old_rows}, **rows}
+        bodies = {**{k: old_bodies[k] for k in kept}, **bodies}
+        if kept:
+            notes = [f'Kept from an earlier run: sections {", ".join(map(str, kept))}.']
     text = ['# Benchmarks', '',
             f'Written by `{" ".join(["python -m benchmarks.run", *(args or sys.argv[1:])])}` '
             f'on {datetime.date.today().isoformat()}{" (smoke run)" if options.smoke else ""}'
             f'; {environment()}. Absolute times vary between machines; each comparison is '
-            'measured in the same run against its baseline.', '', *summary, '',
-            *(section.markdown() for section in sections)]
-    (root / 'BENCHMARKS.md').write_text('\n'.join(text), encoding='utf-8')
+            'measured in the same run against its baseline.', *notes, '',
+            '| section | goal | result |', '|---|---|---|', *(rows[k] for k in sorted(rows)),
+            '', *(bodies[k] for k in sorted(bodies))]
+    report.write_text('\n'.join(text), encoding='utf-8')
     print(f'wrote {root / "BENCHMARKS.md"}')
     return 0
 

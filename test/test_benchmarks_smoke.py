@@ -48,3 +48,15 @@ def test_only_runs_the_chosen_sections(tmp_path):
     report = (tmp_path / 'BENCHMARKS.md').read_text(encoding='utf-8')
     assert re.findall(r'^## (\d)\. ', report, flags=re.MULTILINE) == ['6']
     assert 'Kalman MSE / trace(P)' in report and 'ratio **' in report
+
+
+def test_only_keeps_the_other_sections_of_an_existing_report(tmp_path):
+    for section in ('6', '7'):
+        result = subprocess.run([sys.executable, '-m', 'benchmarks.run', '--smoke', '--only',
+                                 section, '--output', str(tmp_path)], cwd=REPOSITORY,
+                                capture_output=True, text=True, timeout=120)
+        assert result.returncode == 0, result.stderr[-2000:]
+    report = (tmp_path / 'BENCHMARKS.md').read_text(encoding='utf-8')
+    assert re.findall(r'^## (\d)\. ', report, flags=re.MULTILINE) == ['6', '7']
+    assert re.findall(r'^\| (\d)\. ', report, flags=re.MULTILINE) == ['6', '7']
+    assert 'Kept from an earlier run: sections 6.' in report

@@ -605,3 +605,26 @@ def test_discrete_given_gain_with_singular_a():
     design = design_full_order(model, gain=[0.5, 0.1])
     with pytest.raises(ValueError, match='observer.gain'):
         make_estimator(design)
+
+
+def test_advance_many_equals_advance_bit_for_bit(plant):
+    # The batch replay path: same products, jittered stamps, Kalman covariance kept.
+    rng = np.random.default_rng(4)
+    stamps = np.cumsum(rng.integers(9_000_000, 11_000_000, size=300)).astype(np.int64)
+    outputs = rng.standard_normal((300, plant.n_outputs))
+    inputs = rng.standard_normal((300, plant.n_inputs))
+    for design in (design_kalman(plant, np.ones(plant.n_states), [0.01]),
+                   design_chen(plant, [-7.0, -8.0, -9.0]),
+                   design_reduced_order(plant, [-6.0, -7.0, -8.0])):
+        one, many = make_estimator(design), make_estimator(design)
+        expected = [one.advance(int(s), y, u).copy() for s, y, u in zip(stamps, outputs, inputs)]
+        estimates, innovations = many.advance_many(stamps, outputs, inputs)
+        assert np.array_equal(estimates, expected)
+        assert np.array_equal(innovations[-1], one.innovation)
+        assert many.stamp_ns == one.stamp_ns
+        assert np.array_equal(many.estimate, one.estimate)
+        if design.kind == 'kalman':
+            assert np.array_equal(many.covariance, one.covariance)
+        # Both go on identically.
+        assert np.array_equal(many.update(int(stamps[-1]) + 10_000_000, outputs[0], inputs[0]),
+                              one.update(int(stamps[-1]) + 10_000_000, outputs[0], inputs[0]))

@@ -303,15 +303,11 @@ class StreamEstimator:
                 self.counters['late_input'] += int((stamps[:-1] > input_stamps[-1]).sum())
         else:
             self.counters['no_input'] += count - 1
-        estimates = np.empty((count, estimator.n_states))
-        innovations = np.empty((count, estimator.n_outputs))
-        advance = estimator.advance
-        for index, stamp in enumerate(stamps.tolist()):
-            estimates[index] = advance(stamp, outputs[index], held[index])
-            innovations[index] = estimator.innovation
+        estimates, innovations = estimator.advance_many(stamps, outputs, held)
         self.counters['measurements'] += count
         self.counters['estimates'] += count
-        return ReplayArrays(stamps.copy(), estimates, innovations)
+        return ReplayArrays(stamps.copy(), np.ascontiguousarray(estimates),
+                            np.ascontiguousarray(innovations))
 
     def _replay_in_arrival_order(self, input_stamps, inputs, stamps, outputs, input_arrivals,
                                  arrivals) -> 'ReplayArrays':

@@ -46,12 +46,12 @@ import rclpy
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from rclpy.utilities import remove_ros_args
 from rosgraph_msgs.msg import Clock
 
 from observer_ros.bags.storage import BagError, Playback
+from observer_ros.ros.parameters import volatile_qos
 
 NANOSECONDS = 1_000_000_000
 
@@ -62,19 +62,13 @@ SETTLE = 0.2
 LINGER = 0.5
 
 #: Played topics: reliable, deep enough for bursts at recorded timing.
-PLAYER_QOS = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_LAST,
-                        reliability=ReliabilityPolicy.RELIABLE,
-                        durability=DurabilityPolicy.VOLATILE)
+PLAYER_QOS = volatile_qos(1000, reliable=True)
 
 #: ``/clock`` as ``ros2 bag play`` offers it (reliable writers match best-effort readers).
-CLOCK_QOS = QoSProfile(depth=1, history=HistoryPolicy.KEEP_LAST,
-                       reliability=ReliabilityPolicy.RELIABLE,
-                       durability=DurabilityPolicy.VOLATILE)
+CLOCK_QOS = volatile_qos(1, reliable=True)
 
 #: The response subscription: best effort matches every publisher; deep, so none is lost.
-RESPONSE_QOS = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_LAST,
-                          reliability=ReliabilityPolicy.BEST_EFFORT,
-                          durability=DurabilityPolicy.VOLATILE)
+RESPONSE_QOS = volatile_qos(1000, reliable=False)
 
 
 def message_class(msgtype: str, topic: str):

@@ -36,15 +36,20 @@ from rclpy.qos_overriding_options import QoSOverridingOptions
 from observer_ros.core.config import PARAMETERS, System, validate_parameters
 from observer_ros.core.errors import ConfigError, DesignError
 
+
+def volatile_qos(depth: int, reliable: bool) -> QoSProfile:
+    """Keep-last ``depth``, volatile, reliable or best effort: the package's QoS shapes."""
+    return QoSProfile(depth=depth, history=HistoryPolicy.KEEP_LAST,
+                      reliability=(ReliabilityPolicy.RELIABLE if reliable
+                                   else ReliabilityPolicy.BEST_EFFORT),
+                      durability=DurabilityPolicy.VOLATILE)
+
+
 #: Subscriptions are best effort, which matches reliable and best-effort publishers alike.
-SUBSCRIPTION_QOS = QoSProfile(depth=10, history=HistoryPolicy.KEEP_LAST,
-                              reliability=ReliabilityPolicy.BEST_EFFORT,
-                              durability=DurabilityPolicy.VOLATILE)
+SUBSCRIPTION_QOS = volatile_qos(10, reliable=False)
 
 #: Publishers are reliable: every subscriber QoS can match them.
-PUBLISHER_QOS = QoSProfile(depth=10, history=HistoryPolicy.KEEP_LAST,
-                           reliability=ReliabilityPolicy.RELIABLE,
-                           durability=DurabilityPolicy.VOLATILE)
+PUBLISHER_QOS = volatile_qos(10, reliable=True)
 
 #: Users may override history, depth and reliability per topic with the standard
 #: ``qos_overrides./<topic>.<publisher|subscription>.<policy>`` parameters.

@@ -277,6 +277,44 @@ class Estimator:
         self._step = step
         return self._x
 
+    def advance_many(self, stamps_ns: np.ndarray, outputs: np.ndarray,
+                     inputs: np.ndarray) -> tuple:
+        """
+        Run :meth:`advance` over increasing stamps at once; equal to it bit for bit.
+
+        Row ``k`` of ``inputs`` is held from sample ``k-1`` to ``k``; every row must be
+        checked already (finite, right sizes) and the stamps must increase. The products are
+        the same matrix-vector products as :meth:`advance` (written into preallocated rows
+        instead of new arrays), so the results are identical.
+
+        Returns
+        -------
+        estimates : numpy.ndarray, shape (samples, n)
+        innovations : numpy.ndarray, shape (samples, p)
+
+        """
+        count = len(stamps_ns)
+        n, m = self.n_states, self.n_inputs
+        results = np.empty((count, n + self.n_outputs))
+        if count == 0:
+            return results[:, :n], results[:, n:]
+        results[0, :n] = self.advance(int(stamps_ns[0]), outputs[0], inputs[0])
+        results[0, n:] = self._innovation
+        work = np.empty((count, n + m + self.n_outputs))
+        work[:, n:n + m] = inputs
+        work[:, n + m:] = outputs
+        steps = [self.step_matrices(dt).g for dt in np.diff(stamps_ns).tolist()]
+        dot = np.dot
+        for k in range(1, count):
+            work[k, :n] = results[k - 1, :n]
+            dot(steps[k - 1], work[k], out=results[k])
+        if count > 1:
+            self._x = results[-1, :n].copy()
+            self._innovation = results[-1, n:].copy()
+            self._stamp = int(stamps_ns[-1])
+            self._step = self.step_matrices(int(stamps_ns[-1] - stamps_ns[-2]))
+        return results[:, :n], results[:, n:]
+
     def reset(self, initial_state=None) -> None:
         """Forget the stamps and start again from ``initial_state`` (or the configured one)."""
         if initial_state is not None:
