@@ -61,8 +61,15 @@ class TopicToWrite:
     values: np.ndarray
 
 
-def _absolute(topic: str) -> str:
+def absolute_topic(topic: str) -> str:
+    """Return ``topic`` taken from the root, as bags record names (``y`` is ``/y``)."""
     return topic if topic.startswith('/') else '/' + topic
+
+
+def _listing(reader) -> str:
+    """List the topics of an open bag with their types, for error messages."""
+    present = ', '.join(f'{c.topic} ({c.msgtype})' for c in reader.connections)
+    return present or 'no topics (it is empty)'
 
 
 def _reader(path):
@@ -115,15 +122,14 @@ class Playback:
         self.path = path
         self._reader = _reader(path)
         present = {c.topic: c.msgtype for c in self._reader.connections}
-        wanted = set(present) if topics is None else {_absolute(t) for t in topics}
-        wanted -= {_absolute(t) for t in exclude}
+        wanted = set(present) if topics is None else {absolute_topic(t) for t in topics}
+        wanted -= {absolute_topic(t) for t in exclude}
         missing = sorted(wanted - set(present))
         if missing or not wanted:
-            listing = ', '.join(f'{t} ({m})' for t, m in sorted(present.items()))
+            listing = _listing(self._reader)
             self._reader.close()
             raise BagError(f'{path}: ' + (f'no topic {", ".join(missing)}; ' if missing else
-                                          'nothing to play; ') +
-                           f'the bag has {listing or "no topics (it is empty)"}')
+                                          'nothing to play; ') + f'the bag has {listing}')
         self._connections = [c for c in self._reader.connections if c.topic in wanted]
         self.topics = {}
         for connection in self._connections:
@@ -204,16 +210,15 @@ def read_topics(path, requests: Sequence[TopicRequest]) -> list:
         In the order of ``requests``.
 
     """
-    requests = [TopicRequest(_absolute(r.topic), r.kind, r.field, r.names) for r in requests]
+    requests = [TopicRequest(absolute_topic(r.topic), r.kind, r.field, r.names) for r in requests]
     reader = _reader(path)
     try:
         by_topic = {}
         for request in requests:
             connections = [c for c in reader.connections if c.topic == request.topic]
             if not connections:
-                present = ', '.join(f'{c.topic} ({c.msgtype})' for c in reader.connections)
                 raise BagError(f'{path}: no topic {request.topic}; the bag has '
-                               f'{present or "no topics (it is empty)"}')
+                               f'{_listing(reader)}')
             types = {c.msgtype for c in connections}
             expected = MESSAGE_TYPES[request.kind]
             if types != {expected}:
@@ -296,7 +301,7 @@ def write_bag(path, topics: Sequence[TopicToWrite], storage: str = 'mcap') -> Pa
             for item in topics:
                 encoder = Encoder(item.kind, item.names, item.field)
                 connection = writer.add_connection(
-                    _absolute(item.topic), encoder.msgtype, typestore=encoder.typestore,
+                    absolute_topic(item.topic), encoder.msgtype, typestore=encoder.typestore,
                     offered_qos_profiles=_qos())
                 raws = encoder.encode(item.stamps_ns, item.values)
                 streams.append((np.asarray(item.log_times_ns, dtype=np.int64), connection,

@@ -50,7 +50,8 @@ from rclpy.serialization import deserialize_message
 from rclpy.utilities import remove_ros_args
 from rosgraph_msgs.msg import Clock
 
-from observer_ros.bags.storage import BagError, Playback
+from observer_ros.bags.storage import absolute_topic, BagError, Playback
+from observer_ros.ros.messages import stamp_to_ns
 from observer_ros.ros.parameters import volatile_qos
 
 NANOSECONDS = 1_000_000_000
@@ -83,9 +84,7 @@ def message_class(msgtype: str, topic: str):
 
 def _stamp_ns(message) -> Optional[int]:
     header = getattr(message, 'header', None)
-    if header is None:
-        return None
-    return header.stamp.sec * NANOSECONDS + header.stamp.nanosec
+    return None if header is None else stamp_to_ns(header.stamp)
 
 
 @dataclass
@@ -151,16 +150,16 @@ class BagPlayer(Node):
         if clock and '/clock' in playback.topics:
             raise BagError(f'{playback.path}: the bag has /clock itself; play it with '
                            f'--no-clock or leave it out with --exclude /clock')
-        trigger = '/' + trigger.lstrip('/')
+        trigger = absolute_topic(trigger)
         if paced_by is not None:
-            paced_by = '/' + paced_by.lstrip('/')
+            paced_by = absolute_topic(paced_by)
             if trigger not in playback.topics:
                 raise BagError(f'--trigger: {trigger} is not among the played topics '
                                f'({", ".join(sorted(playback.topics))})')
             if paced_by in playback.topics:
                 raise BagError(f'--paced-by: {paced_by} is also played from the bag; leave '
                                f'it out with --exclude {paced_by}')
-        wait_for = ['/' + topic.lstrip('/') for topic in wait_for]
+        wait_for = [absolute_topic(topic) for topic in wait_for]
         if paced_by is not None:
             wait_for.append(trigger)
         unknown = sorted(set(wait_for) - set(playback.topics))
