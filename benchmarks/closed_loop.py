@@ -33,7 +33,8 @@ import rclpy
 from rclpy.parameter import Parameter
 
 from benchmarks.common import CONFIG_DIR, pyplot, Section
-from observer_ros.nodes.closed_loop import ClosedLoop, make_executor
+from observer_ros.nodes.closed_loop import ClosedLoop
+from observer_ros.ros.parameters import make_executor
 
 CONFIG = CONFIG_DIR / 'seed003_full_order.yaml'
 LOG = re.compile(r'simulated (\d+) samples; (\d+) applied .*first command at sample (\w+)')
@@ -68,10 +69,10 @@ def one_process(rate: float, seconds: float, lockstep: bool = False,
         rclpy.try_shutdown(context=context)
 
 
-def three_processes(rate: float, seconds: float) -> float:
+def three_processes(rate: float, seconds: float, executor: str = 'events') -> float:
     """Observer, state_feedback and plant_simulator as processes; the on-time fraction."""
     samples = int(rate * seconds)
-    common = ['--ros-args', '--params-file', str(CONFIG)]
+    common = ['--executor', executor, '--ros-args', '--params-file', str(CONFIG)]
     bin_dir = os.path.dirname(sys.executable)
 
     def start(name, *extra):
@@ -107,19 +108,21 @@ def run(smoke: bool, figures) -> Section:
     rates = [100.0] if smoke else [100.0, 250.0, 500.0, 1000.0, 2000.0]
     seconds = 1.5 if smoke else 4.0
     fractions = {'one process, single': [], 'one process, events': [],
-                 'three processes': []}
+                 'three processes, single': [], 'three processes, events': []}
     for rate in rates:
-        fractions['one process, single'].append(one_process(rate, seconds)[0])
-        fractions['one process, events'].append(
-            one_process(rate, seconds, executor='events')[0])
-        fractions['three processes'].append(three_processes(rate, seconds))
+        for executor in ('single', 'events'):
+            fractions[f'one process, {executor}'].append(
+                one_process(rate, seconds, executor=executor)[0])
+            fractions[f'three processes, {executor}'].append(
+                three_processes(rate, seconds, executor))
     rows = [[f'{rate:g}', *(f'{100 * fractions[kind][i]:.1f} %' for kind in fractions)]
             for i, rate in enumerate(rates)]
     section.add(f'seed 003 (full-order observer and state feedback), {seconds:g} s per rate; '
                 'share of the samples (after the first command) that applied the command '
                 'computed from the previous sample.', '')
-    section.table(['rate (Hz)', 'closed_loop (SingleThreadedExecutor)',
-                   'closed_loop --executor events', 'three processes'], rows)
+    section.table(['rate (Hz)', 'closed_loop --executor single',
+                   'closed_loop (events, the default)', 'three processes --executor single',
+                   'three processes (events, the default)'], rows)
     highest = {kind: max((rate for rate, f in zip(rates, values) if f >= 0.99), default=0.0)
                for kind, values in fractions.items()}
     lockstep_samples = 300 if smoke else 3000

@@ -17,9 +17,10 @@
 
 The observer node and a relay (subscribe ``y``, copy the JointState, publish it) run as
 separate processes on the same executor type with the package's QoS. A probe in this
-process pings them in turn, one message in flight at a time: ``u`` and ``y`` to the
-observer, then ``y`` to the relay (remapped), and takes the time until the answer with the
-same stamp arrives.
+process pings them in turn, one message in flight at a time: ``y`` to the observer, then
+``y`` to the relay (remapped), and takes the time until the answer with the same stamp
+arrives. As in a closed loop, the probe sends the command ``u`` stamped like ``y`` after the
+estimate arrived (the estimate for the next ``y`` needs it), outside the timed window.
 """
 
 import os
@@ -45,7 +46,7 @@ CONFIG = CONFIG_DIR / 'seed001_fourth_order.yaml'
 def start(kind: str, executor: str, *ros_args: str) -> subprocess.Popen:
     """Start ``benchmarks.ros_runner`` for ``kind`` on ``executor``."""
     return subprocess.Popen(
-        [sys.executable, '-m', 'benchmarks.ros_runner', kind, executor, '--ros-args',
+        [sys.executable, '-m', 'benchmarks.ros_runner', kind, '--executor', executor, '--ros-args',
          '--params-file', str(CONFIG), *ros_args], cwd=REPOSITORY,
         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=dict(os.environ))
 
@@ -86,10 +87,6 @@ class Probe(Node):
         """Round trip to the observer (``x_hat``) or the relay, in microseconds (nan: lost)."""
         message = JointState(name=['y1'], position=[0.1 * (stamp % 7)])
         ns_to_stamp(message.header.stamp, stamp)
-        if target == 'x_hat':
-            command = JointState(name=['u1'], position=[0.0])
-            ns_to_stamp(command.header.stamp, stamp)
-            self.publishers_['u'].publish(command)
         key = (target, stamp)
         sent = time.perf_counter_ns()
         self.publishers_['y' if target == 'x_hat' else 'relay_in'].publish(message)
@@ -97,6 +94,10 @@ class Probe(Node):
         while key not in self.arrivals and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.001)
         arrived = self.arrivals.pop(key, None)
+        if target == 'x_hat':  # the command computed from this estimate, as in a loop
+            command = JointState(name=['u1'], position=[0.0])
+            ns_to_stamp(command.header.stamp, stamp)
+            self.publishers_['u'].publish(command)
         return float('nan') if arrived is None else (arrived - sent) / 1e3
 
 

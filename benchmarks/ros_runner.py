@@ -15,15 +15,12 @@
 """
 Spin the observer node, or a bare relay, on a chosen executor (benchmark 4).
 
-``python -m benchmarks.ros_runner observer|relay single|multi|events --ros-args ...``
+``python -m benchmarks.ros_runner observer|relay [--executor NAME] --ros-args ...``
 """
 
 import sys
 
-import rclpy
-from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.utilities import remove_ros_args
 from sensor_msgs.msg import JointState
 
 from observer_ros.nodes.observer import ObserverNode
@@ -43,28 +40,11 @@ class Relay(Node):
                                           position=list(message.position)))
 
 
-def make_executor(name: str):
-    """Return the executor called ``name`` (``single``, ``multi`` or ``events``)."""
-    if name == 'events':
-        from rclpy.experimental import EventsExecutor
-        return EventsExecutor()
-    return MultiThreadedExecutor() if name == 'multi' else SingleThreadedExecutor()
-
-
 def main() -> int:
-    """Spin until interrupted."""
-    node_kind, executor_name = remove_ros_args(sys.argv)[1:3]
-
-    def spin(node) -> None:
-        executor = make_executor(executor_name)
-        executor.add_node(node)
-        # spin_once in a loop for every executor: in the rclpy 7.1 wheels,
-        # EventsExecutor.spin() stops delivering messages from other processes.
-        while rclpy.ok():
-            executor.spin_once(timeout_sec=0.1)
-
-    return run_node(ObserverNode if node_kind == 'observer' else Relay, 'ros_runner',
-                    sys.argv, spin=spin)
+    """Spin until interrupted, as the package's nodes do (same executor loop)."""
+    kind = sys.argv[1]
+    return run_node(ObserverNode if kind == 'observer' else Relay, 'ros_runner',
+                    [sys.argv[0], *sys.argv[2:]])
 
 
 if __name__ == '__main__':

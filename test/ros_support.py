@@ -30,7 +30,8 @@ from sensor_msgs.msg import JointState
 
 from conftest import CONFIG_DIR
 from observer_ros.core.streaming import StreamEstimator
-from observer_ros.nodes.closed_loop import ClosedLoop, make_executor
+from observer_ros.nodes.closed_loop import ClosedLoop
+from observer_ros.ros.parameters import make_executor
 
 
 @contextmanager

@@ -23,7 +23,7 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from bag_support import (float64_array, JOINT_STATE, joint_state, robot_parameters, serialize,
                          TYPESTORE, write_robot_bag)
 from conftest import CONFIG_DIR
-from observer_ros.bags.cdr import decode, Encoder
+from observer_ros.bags.cdr import decode, DecodeError, Encoder, MessageReader, MessageWriter
 from observer_ros.bags.replay import replay_bag, write_replay
 from observer_ros.bags.storage import BagError, read_topic, TopicToWrite, write_bag
 from observer_ros.core.config import load_parameter_file, validate_parameters
@@ -52,6 +52,46 @@ def test_decode_equals_rosbags_on_mixed_layouts():
     _, values, errors = decode(raws, 'joint_state', 'velocity', ['y1'])
     assert sorted(errors) == list(range(0, 400, 2))
     assert np.isnan(values[0::2]).all() and np.isfinite(values[1::2]).all()
+
+
+def test_one_message_reader_equals_the_batch_decoder_as_layouts_change():
+    rng = np.random.default_rng(2)
+    raws = []
+    for index in range(300):
+        names = [['shoulder', 'y1', 'wrist'], ['y1'], ['a', 'b', 'c', 'y1']][index // 7 % 3]
+        raws.append(serialize(joint_state(
+            index * 10**7 + 5, names, rng.standard_normal(len(names)),
+            rng.standard_normal(len(names)), frame_id='base' * (index // 11 % 3))))
+    for field in ('position', 'velocity'):
+        stamps, values, errors = decode(raws, 'joint_state', field, ['y1'])
+        assert errors == {}
+        reader = MessageReader('joint_state', field, ['y1'])
+        read = [reader.read(raw) for raw in raws]
+        assert [stamp for stamp, _ in read] == stamps.tolist()
+        assert [vector for _, vector in read] == values.tolist()
+
+
+def test_one_message_reader_refuses_what_it_cannot_read():
+    reader = MessageReader('joint_state', 'position', ['y1', 'y2'])
+    good = serialize(joint_state(7, ['y2', 'y1'], [2.0, 1.0]))
+    assert reader.read(good) == (7, [1.0, 2.0])
+    for raw, reason in ((good[:-3], 'truncated'),
+                        (serialize(joint_state(7, ['y1'], [1.0])), r"joints \['y2'\] missing"),
+                        (serialize(joint_state(7, ['y1', 'y2'], [1.0])), '2 names but 1'),
+                        (b'\x00\x00\x00\x00' + good[4:], 'little-endian')):
+        with pytest.raises(DecodeError, match=reason):
+            reader.read(raw)
+    assert reader.read(good) == (7, [1.0, 2.0])  # and reads the good layout again
+
+
+@pytest.mark.parametrize('kind', ['joint_state', 'float64_multi_array'])
+def test_one_message_writer_equals_the_batch_encoder(kind):
+    rng = np.random.default_rng(3)
+    stamps = rng.integers(0, 10**12, size=20)
+    values = rng.standard_normal((20, 3))
+    encoder = Encoder(kind, ['x1', 'x2', 'x3'])
+    writer = MessageWriter(bytes(encoder.template), kind, 'position')
+    assert [writer.write(s, v) for s, v in zip(stamps, values)] == encoder.encode(stamps, values)
 
 
 @pytest.mark.parametrize('kind', ['joint_state', 'float64_multi_array'])

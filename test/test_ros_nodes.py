@@ -26,16 +26,18 @@ import pytest
 from rclpy.node import Node
 from rclpy.parameter_client import AsyncParameterClient
 from rclpy.qos import qos_profile_sensor_data
+from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 
+from bag_support import float64_array, joint_state as joint_state_cdr, serialize, TYPESTORE
 from conftest import CONFIG_DIR
 from observer_ros.core.config import load_parameter_file, validate_parameters
 from observer_ros.core.streaming import StreamEstimator
 from observer_ros.nodes.observer import ObserverNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
-from observer_ros.ros.messages import ns_to_stamp
+from observer_ros.ros.messages import MalformedMessage, ns_to_stamp, VectorCodec
 from ros_support import executor_with, overrides, ros_context, spin_until
 
 SEED003 = CONFIG_DIR / 'seed003_full_order.yaml'
@@ -99,6 +101,29 @@ def send(driver, executor, stamp, u, y, expect_estimates):
         f'expected {expect_estimates} estimates, got {len(driver.estimates)}')
 
 
+@pytest.mark.parametrize('kind', ['joint_state', 'float64_multi_array'])
+def test_codec_reads_and_writes_the_bytes_rclpy_does(kind):
+    codec = VectorCodec('y', kind, 'position', ['y1', 'y2'])
+    raw = codec.encode(1_500_000_007, np.array([0.25, -3.0]))
+    message = deserialize_message(raw, codec.message_class)
+    assert message == codec.message(1_500_000_007, [0.25, -3.0])
+    assert codec.encode(1_500_000_007, [0.25, -3.0]) == raw  # padding zeroed, not leaked
+    stamp = 1_500_000_007 if kind == 'joint_state' else None
+    for form in (raw, message):
+        decoded = codec.decode(form)
+        assert decoded[0] == stamp and decoded[1].tolist() == [0.25, -3.0]
+    # Big-endian CDR (another architecture) goes through the general deserializer.
+    stored = (joint_state_cdr(1_500_000_007, ['y1', 'y2'], [0.25, -3.0])
+              if kind == 'joint_state' else float64_array([0.25, -3.0]))
+    big = bytes(TYPESTORE.serialize_cdr(stored, stored.__msgtype__, little_endian=False))
+    assert big[:2] == b'\x00\x00' and big != serialize(stored)
+    decoded = codec.decode(big)
+    assert decoded[0] == stamp and decoded[1].tolist() == [0.25, -3.0]
+    for bad in (raw[:30], b'\x00\x00\x00\x00' + bytes(3)):
+        with pytest.raises(MalformedMessage, match='^y: '):
+            codec.decode(bad)
+
+
 def test_malformed_measurements_are_dropped_and_counted(observer_setup):
     system, observer, driver, executor = observer_setup
     samples = plant_samples(system, 12)
@@ -109,6 +134,8 @@ def test_malformed_measurements_are_dropped_and_counted(observer_setup):
         joint_state(samples[6][0], ['y1', 'y2'], [1.0]),           # lengths differ
         joint_state(samples[6][0], ['elbow'], [1.0]),              # missing joint
         joint_state(samples[6][0], ['y1'], [math.inf]),            # infinite
+        serialize_message(joint_state(samples[6][0], ['y1'], [1.0]))[:30],  # truncated
+        b'\x00\x00\x00\x00' + bytes(40),                            # undecodable
     ]
     for message in bad:
         driver.y.publish(message)

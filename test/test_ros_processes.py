@@ -47,6 +47,17 @@ def test_bad_configuration_exits_2_with_one_line(tmp_path, executable):
     assert lines[0].startswith(f'{executable}: error: model.B: expected'), lines[0]
 
 
+@pytest.mark.parametrize('executable', EXECUTABLES)
+def test_unknown_executor_or_argument_exits_2_naming_it(executable):
+    for args, expected in ((['--executor', 'fast'], "argument --executor: invalid choice: 'fast'"),
+                           (['--fast'], 'unrecognized arguments: --fast')):
+        result = subprocess.run([executable, *args, '--ros-args', '--params-file',
+                                 str(CONFIG_DIR / 'seed003_full_order.yaml')],
+                                capture_output=True, text=True, timeout=60)
+        assert result.returncode == 2, result.stderr
+        assert f'{executable}: error: {expected}' in result.stderr, result.stderr
+
+
 def test_node_without_its_section_names_the_missing_parameter(tmp_path):
     result = subprocess.run(
         ['state_feedback', '--ros-args', '--params-file',
@@ -95,9 +106,11 @@ def test_real_time_plant_and_observer_processes(config):
     assert error[-1] < 0.05 * error.max()
 
 
-def test_three_processes_in_lockstep_equal_the_one_process_loop():
+@pytest.mark.parametrize('executor', ['events', 'single'])
+def test_three_processes_in_lockstep_equal_the_one_process_loop(executor):
     config = 'seed003_full_order.yaml'
     path = str(CONFIG_DIR / config)
+    choice = ['--executor', executor]
     samples = 200
     system = validate_parameters(load_parameter_file(path))
     with ros_context() as context:
@@ -106,14 +119,15 @@ def test_three_processes_in_lockstep_equal_the_one_process_loop():
             spin_until(executor, lambda: False, 0.2)
             sim_time = ['-p', 'use_sim_time:=true']
             processes = [
-                NodeProcess('observer', '--ros-args', '--params-file', path, *sim_time),
-                NodeProcess('state_feedback', '--ros-args', '--params-file', path, *sim_time)]
+                NodeProcess('observer', *choice, '--ros-args', '--params-file', path, *sim_time),
+                NodeProcess('state_feedback', *choice, '--ros-args', '--params-file', path,
+                            *sim_time)]
             x_hat = next(s for s in recorder.subscriptions if s.topic_name == '/x_hat')
             try:
                 # The plant waits for its own subscribers only: see the observer first.
                 assert spin_until(executor, lambda: x_hat.get_publisher_count() > 0, 30.0)
                 processes.append(NodeProcess(
-                    'plant_simulator', '--ros-args', '--params-file', path,
+                    'plant_simulator', *choice, '--ros-args', '--params-file', path,
                     '-p', 'plant.lockstep:=true', '-p', f'plant.samples:={samples}',
                     '-p', 'plant.lockstep_subscribers:=2'))
                 plant = processes[-1].process

@@ -44,74 +44,90 @@ class DecodeError(ValueError):
 
 @dataclass(frozen=True)
 class Layout:
-    """Where a message keeps its stamp and its double arrays."""
+    """Where a message keeps its stamp and its double arrays, and what makes its layout."""
 
     names: tuple
     arrays: dict  # field -> (byte offset of the first double, count)
     size: int
+    #: ``(start, end)`` byte ranges that define the layout: the encapsulation kind, counts,
+    #: lengths and string bytes. Stamps, doubles, alignment padding and trailing bytes are
+    #: free (serializers leave padding uninitialised: it differs between equal messages).
+    fixed: tuple = ()
 
 
-def _align(offset: int, alignment: int) -> int:
-    return offset + (-(offset - ORIGIN)) % alignment
+class _Parser:
+    """Walk a serialized message, noting the ranges that define its layout."""
 
+    def __init__(self, raw) -> None:
+        self.raw = raw
+        self.offset = ORIGIN
+        self.fixed = [(0, 2)]
 
-def _string(raw, offset: int) -> tuple:
-    offset = _align(offset, 4)
-    (length,) = struct.unpack_from('<I', raw, offset)
-    text = bytes(raw[offset + 4:offset + 4 + length - 1]).decode('utf-8')
-    return text, offset + 4 + length
+    def align(self, alignment: int) -> None:
+        self.offset += (-(self.offset - ORIGIN)) % alignment
 
+    def keep(self, start: int, end: int) -> None:
+        if self.fixed[-1][1] == start:
+            self.fixed[-1] = (self.fixed[-1][0], end)
+        else:
+            self.fixed.append((start, end))
 
-def _doubles(raw, offset: int) -> tuple:
-    offset = _align(offset, 4)
-    (count,) = struct.unpack_from('<I', raw, offset)
-    offset += 4
-    if count:
-        offset = _align(offset, 8)
-    return (offset, count), offset + 8 * count
+    def count(self) -> int:
+        self.align(4)
+        (value,) = struct.unpack_from('<I', self.raw, self.offset)
+        self.keep(self.offset, self.offset + 4)
+        self.offset += 4
+        return value
+
+    def string(self) -> str:
+        length = self.count()
+        start = self.offset
+        self.offset += length
+        if self.offset > len(self.raw):
+            raise DecodeError('truncated message')
+        self.keep(start, self.offset)
+        return bytes(self.raw[start:self.offset - 1]).decode('utf-8')
+
+    def doubles(self) -> tuple:
+        count = self.count()
+        if count:
+            self.align(8)
+        start = self.offset
+        self.offset += 8 * count
+        return start, count
 
 
 def parse_layout(raw, kind: str) -> Layout:
     """Parse one serialized message's layout (``kind``: joint_state | float64_multi_array)."""
     if bytes(raw[:2]) != HEADER[:2]:
         raise DecodeError('not little-endian plain CDR')
+    parser = _Parser(raw)
     try:
         if kind == 'joint_state':
-            _, offset = _string(raw, ORIGIN + 8)  # stamp, then frame_id
-            (count,) = struct.unpack_from('<I', raw, _align(offset, 4))
-            offset = _align(offset, 4) + 4
-            names = []
-            for _ in range(count):
-                name, offset = _string(raw, offset)
-                names.append(name)
-            arrays = {}
-            for field in JOINT_STATE_FIELDS:
-                arrays[field], offset = _doubles(raw, offset)
+            parser.offset += 8  # stamp
+            parser.string()  # frame_id
+            names = [parser.string() for _ in range(parser.count())]
+            arrays = {field: parser.doubles() for field in JOINT_STATE_FIELDS}
         else:
-            offset = _align(ORIGIN, 4)
-            (dims,) = struct.unpack_from('<I', raw, offset)
-            offset += 4
-            for _ in range(dims):
-                _, offset = _string(raw, offset)
-                offset = _align(offset, 4) + 8  # size, stride
-            offset = _align(offset, 4) + 4  # data_offset
-            arrays = {}
-            arrays['data'], offset = _doubles(raw, offset)
+            for _ in range(parser.count()):  # layout.dim: label, size, stride
+                parser.string()
+                parser.count()
+                parser.count()
+            parser.count()  # data_offset
+            arrays = {'data': parser.doubles()}
             names = []
     except (struct.error, UnicodeDecodeError) as e:
         raise DecodeError(f'truncated or corrupt message ({e})') from e
-    if offset > len(raw):
+    if parser.offset > len(raw):
         raise DecodeError('truncated message')
-    return Layout(tuple(names), arrays, len(raw))
+    return Layout(tuple(names), arrays, len(raw), tuple(parser.fixed))
 
 
-def _fixed_mask(layout: Layout, kind: str) -> np.ndarray:
+def _fixed_mask(layout: Layout) -> np.ndarray:
     """Bytes that must equal the template's for a message to share its layout."""
-    mask = np.ones(layout.size, dtype=bool)
-    if kind == 'joint_state':
-        mask[ORIGIN:ORIGIN + 8] = False
-    for offset, count in layout.arrays.values():
-        mask[offset:offset + 8 * count] = False
+    mask = np.zeros(layout.size, dtype=bool)
+    for start, end in layout.fixed:
+        mask[start:end] = True
     return mask
 
 
@@ -179,7 +195,7 @@ def decode(raws: Sequence[bytes], kind: str, field: str, names: Sequence[str]) -
         block = np.frombuffer(b''.join(raws[i] for i in candidates), dtype=np.uint8)
         block = block.reshape(candidates.size, layout.size)
         template = block[0]
-        mask = _fixed_mask(layout, kind)
+        mask = _fixed_mask(layout)
         same = (block[:, mask] == template[mask]).all(axis=1)
         members = candidates[same]
         rows = block[same]
@@ -191,6 +207,79 @@ def decode(raws: Sequence[bytes], kind: str, field: str, names: Sequence[str]) -
         values[members] = data[:, order]
         remaining = np.setdiff1d(remaining, members, assume_unique=True)
     return stamps, values, errors
+
+
+STAMP = struct.Struct('<iI')
+
+
+class MessageReader:
+    """
+    Decode one serialized message at a time (the online path of :func:`decode`).
+
+    The layout of the last message is kept: a message that matches it byte for byte outside
+    the stamp and the doubles is read with two ``struct`` calls; any other is parsed.
+    """
+
+    def __init__(self, kind: str, field: str, names: Sequence[str]) -> None:
+        self.kind = kind
+        self.field = field
+        self.names = list(names)
+        self._size = -1
+        self._segments: tuple = ()
+        self._values: Optional[struct.Struct] = None
+        self._offset = 0
+        self._order: list = []
+
+    def _learn(self, raw) -> None:
+        layout = parse_layout(raw, self.kind)
+        offset, count, order = _select(layout, self.kind, self.field, self.names)
+        self._segments = tuple((start, bytes(raw[start:end])) for start, end in layout.fixed)
+        self._size = layout.size
+        self._offset = offset
+        self._values = struct.Struct(f'<{count}d')
+        self._order = order
+
+    def read(self, raw: bytes) -> tuple:
+        """
+        Return ``(stamp_ns, values)``: the header stamp (0 without one) and the wanted values.
+
+        Raises
+        ------
+        DecodeError
+            Not little-endian plain CDR, truncated, or without the wanted values.
+
+        """
+        if len(raw) != self._size or not all(
+                raw[start:start + len(expected)] == expected
+                for start, expected in self._segments):
+            self._learn(raw)
+        stamp = 0
+        if self.kind == 'joint_state':
+            seconds, nanoseconds = STAMP.unpack_from(raw, ORIGIN)
+            stamp = seconds * 1_000_000_000 + nanoseconds
+        values = self._values.unpack_from(raw, self._offset)
+        return stamp, [values[i] for i in self._order]
+
+
+class MessageWriter:
+    """Serialize one vector at a time into a copy of a serialized template message."""
+
+    def __init__(self, template: bytes, kind: str, field: str) -> None:
+        layout = parse_layout(template, kind)
+        self.offset, count = layout.arrays[field if kind == 'joint_state' else 'data']
+        self.stamped = kind == 'joint_state'
+        self._values = struct.Struct(f'<{count}d')
+        self._buffer = bytearray(len(template))  # padding zeroed, whatever the template had
+        self._buffer[:ORIGIN] = HEADER
+        for start, end in layout.fixed:
+            self._buffer[start:end] = template[start:end]
+
+    def write(self, stamp_ns: int, values) -> bytes:
+        """Return the template with ``stamp_ns`` (when it has a header) and ``values``."""
+        if self.stamped:
+            STAMP.pack_into(self._buffer, ORIGIN, *divmod(int(stamp_ns), 1_000_000_000))
+        self._values.pack_into(self._buffer, self.offset, *values)
+        return bytes(self._buffer)
 
 
 class Encoder:

@@ -35,8 +35,9 @@ from observer_ros.bags.storage import BagError, STORAGES, TopicToWrite, write_ba
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.plots import write_run_report
 from observer_ros.nodes.observer import ObserverNode
-from observer_ros.nodes.plant_simulator import PlantSimulatorNode
+from observer_ros.nodes.plant_simulator import plant_done, PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
+from observer_ros.ros.parameters import EXECUTORS, make_executor, spin_until
 from observer_ros.ros.recorder import TopicRecorder
 
 
@@ -76,12 +77,7 @@ class ClosedLoop:
 
     def spin(self, timeout_sec: Optional[float] = None) -> bool:
         """Spin until ``plant.samples`` are done (or forever); True when they are."""
-        if self.plant.samples:
-            self.executor.spin_until_future_complete(self.plant.finished, timeout_sec)
-            return self.plant.finished.done()
-        while rclpy.ok(context=self.context):  # spin_once: see EventsExecutor in README
-            self.executor.spin_once(timeout_sec=0.1)
-        return False
+        return spin_until(self.executor, plant_done(self.plant), timeout_sec, self.context)
 
     def destroy(self) -> None:
         """Destroy every node and the executor."""
@@ -109,14 +105,6 @@ class ClosedLoop:
         return str(write_bag(path, topics, storage))
 
 
-def make_executor(name: str, context=None):
-    """Return rclpy's EventsExecutor for ``'events'``, None (the default) for ``'single'``."""
-    if name == 'events':
-        from rclpy.experimental import EventsExecutor
-        return EventsExecutor(context=context)
-    return None
-
-
 def main(args=None) -> int:
     """Entry point of ``ros2 run observer_ros closed_loop``."""
     argv = sys.argv if args is None else args
@@ -128,9 +116,9 @@ def main(args=None) -> int:
                         help='write y, u, u_cmd, x_true and x_hat to a new rosbag2 bag at the end')
     parser.add_argument('--storage', choices=STORAGES, default='mcap',
                         help='bag storage for --record (default: mcap)')
-    parser.add_argument('--executor', choices=('single', 'events'), default='single',
-                        help="'events': rclpy's experimental EventsExecutor, about 2.7x the "
-                        'lockstep speed (see BENCHMARKS.md); default: SingleThreadedExecutor')
+    parser.add_argument('--executor', choices=EXECUTORS, default=EXECUTORS[0],
+                        help="rclpy executor: 'events' (rclpy.experimental.EventsExecutor, the "
+                        "fastest, default), 'single' (SingleThreadedExecutor) or 'multi'")
     options = parser.parse_args(remove_ros_args(argv)[1:])
     if options.record and os.path.exists(options.record):
         parser.error(f'--record: {options.record} exists already')

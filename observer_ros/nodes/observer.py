@@ -58,9 +58,9 @@ class ObserverNode(ConfiguredNode):
                                   qos_overriding_options=QOS_OVERRIDES)
             if system.observer.kind == 'kalman' else None)
         self.create_subscription(self.codecs['y'].message_class, 'y', self._on_measurement,
-                                 SUBSCRIPTION_QOS, qos_overriding_options=QOS_OVERRIDES)
+                                 SUBSCRIPTION_QOS, qos_overriding_options=QOS_OVERRIDES, raw=True)
         self.create_subscription(self.codecs['u'].message_class, 'u', self._on_input,
-                                 SUBSCRIPTION_QOS, qos_overriding_options=QOS_OVERRIDES)
+                                 SUBSCRIPTION_QOS, qos_overriding_options=QOS_OVERRIDES, raw=True)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.wait_timer = self.create_timer(
             system.parameters['observer.input_wait'] or 1e-3, self._on_wait_expired,

@@ -31,7 +31,6 @@ and as fast as the nodes answer.
 from collections import Counter
 
 import numpy as np
-import rclpy
 from rclpy.clock import Clock, ClockType
 from rclpy.task import Future
 from rosgraph_msgs.msg import Clock as ClockMessage
@@ -71,7 +70,7 @@ class PlantSimulatorNode(ConfiguredNode):
             self.codecs[topic].message_class, topic, PUBLISHER_QOS,
             qos_overriding_options=QOS_OVERRIDES) for topic in ('y', 'u', 'x_true')}
         self.create_subscription(self.codecs['u_cmd'].message_class, 'u_cmd', self._on_command,
-                                 SUBSCRIPTION_QOS, qos_overriding_options=QOS_OVERRIDES)
+                                 SUBSCRIPTION_QOS, qos_overriding_options=QOS_OVERRIDES, raw=True)
         self.command = None
         self.command_stamp = None
         self.index = 0
@@ -186,14 +185,11 @@ class PlantSimulatorNode(ConfiguredNode):
         self._advance()
 
 
-def spin_plant(node: PlantSimulatorNode) -> None:
-    """Spin until ``plant.samples`` are done (forever when it is 0)."""
-    if node.samples:
-        rclpy.spin_until_future_complete(node, node.finished)
-    else:
-        rclpy.spin(node)
+def plant_done(node: PlantSimulatorNode):
+    """Predicate ending the spin when ``plant.samples`` are done (never when it is 0)."""
+    return node.finished.done if node.samples else None
 
 
 def main(args=None) -> int:
     """Entry point of ``ros2 run observer_ros plant_simulator``."""
-    return run_node(PlantSimulatorNode, 'plant_simulator', args, spin=spin_plant)
+    return run_node(PlantSimulatorNode, 'plant_simulator', args, done=plant_done)

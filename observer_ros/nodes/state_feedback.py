@@ -57,10 +57,10 @@ class StateFeedbackNode(ConfiguredNode):
             self.codecs['u_cmd'].message_class, 'u_cmd', PUBLISHER_QOS,
             qos_overriding_options=QOS_OVERRIDES)
         self.create_subscription(self.codecs['x_hat'].message_class, 'x_hat', self._on_estimate,
-                                 SUBSCRIPTION_QOS, qos_overriding_options=QOS_OVERRIDES)
+                                 SUBSCRIPTION_QOS, qos_overriding_options=QOS_OVERRIDES, raw=True)
         self.create_subscription(self.codecs['reference'].message_class, 'reference',
                                  self._on_reference, SUBSCRIPTION_QOS,
-                                 qos_overriding_options=QOS_OVERRIDES)
+                                 qos_overriding_options=QOS_OVERRIDES, raw=True)
         self.watchdog = self.create_timer(system.feedback.timeout / 2.0, self._check_stale)
         self.diagnostics = DiagnosticsPublisher(self, lambda: self.counters)
         self.get_logger().info(f'K = {system.feedback.design.gain.tolist()}')

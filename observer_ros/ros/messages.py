@@ -20,15 +20,21 @@ names and the values sit in one field (``position`` by default). Extra joints ar
 and order does not matter, so ``/joint_states`` of a real robot works. ``std_msgs/
 Float64MultiArray`` carries the bare vector in ``data`` and no stamp: the receiver stamps it
 on arrival (ros2_control forward command controllers take this type).
+
+Nodes subscribe and publish serialized messages (``raw=True``): the codec reads and writes
+the CDR bytes directly (:mod:`observer_ros.bags.cdr`, the same code as the bag tools), which
+skips building Python message objects on the hot path. Message objects are accepted too.
 """
 
 import math
 from typing import Optional, Sequence
 
 import numpy as np
+from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
+from observer_ros.bags.cdr import DecodeError, HEADER, MessageReader, MessageWriter
 from observer_ros.core.config import System
 
 MESSAGE_CLASSES = {'joint_state': JointState, 'float64_multi_array': Float64MultiArray}
@@ -73,6 +79,9 @@ class VectorCodec:
         self.message_class = MESSAGE_CLASSES[kind]
         self.stamped = kind == 'joint_state'
         self._order_cache: dict = {}
+        self._reader = MessageReader(kind, field, self.names)
+        self._writer = MessageWriter(serialize_message(self.message(0, [0.0] * self.size)),
+                                     kind, field)
 
     @classmethod
     def for_topic(cls, system: System, topic: str) -> 'VectorCodec':
@@ -86,8 +95,12 @@ class VectorCodec:
         return cls(topic, params[f'topics.{topic}.type'], params[f'topics.{topic}.field'],
                    names)
 
-    def encode(self, stamp_ns: int, vector) -> object:
-        """Build a message holding ``vector`` (stamped when the type has a header)."""
+    def encode(self, stamp_ns: int, vector) -> bytes:
+        """Serialize a message holding ``vector`` (stamped when the type has a header)."""
+        return self._writer.write(stamp_ns, vector)
+
+    def message(self, stamp_ns: int, vector) -> object:
+        """Build a message object holding ``vector`` (stamped when the type has a header)."""
         values = [float(value) for value in vector]
         if self.kind == 'float64_multi_array':
             return Float64MultiArray(data=values)
@@ -115,15 +128,25 @@ class VectorCodec:
         """
         Return ``(stamp_ns, vector)``; the stamp is None when the message carries none.
 
-        A JointState whose stamp is zero counts as unstamped.
+        ``message`` is a message object or its serialized bytes. A JointState whose stamp is
+        zero counts as unstamped.
 
         Raises
         ------
         MalformedMessage
-            Wrong length, missing joints or a non-finite value.
+            Undecodable bytes, wrong length, missing joints or a non-finite value.
 
         """
-        if self.kind == 'float64_multi_array':
+        if isinstance(message, bytes):
+            if message[:2] != HEADER[:2]:  # big-endian or exotic: the general deserializer
+                return self.decode(self._deserialize(message))
+            try:
+                stamp, values = self._reader.read(message)
+            except DecodeError as e:
+                raise MalformedMessage(f'{self.topic}: {e}') from None
+            vector = np.array(values, dtype=float)
+            stamp = stamp or None
+        elif self.kind == 'float64_multi_array':
             data = message.data
             if len(data) != self.size:
                 raise MalformedMessage(
@@ -142,3 +165,9 @@ class VectorCodec:
         if not all(math.isfinite(value) for value in vector):
             raise MalformedMessage(f'{self.topic}: non-finite value in {vector.tolist()}')
         return stamp, vector
+
+    def _deserialize(self, raw: bytes) -> object:
+        try:
+            return deserialize_message(raw, self.message_class)
+        except Exception as e:  # the type support raises plain RuntimeError / others
+            raise MalformedMessage(f'{self.topic}: cannot deserialize ({e})') from None

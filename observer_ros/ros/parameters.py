@@ -22,16 +22,20 @@ change with the same function: a rejected change returns the reason and leaves e
 as it was; an accepted one is applied after it is set.
 """
 
+import argparse
 import sys
+import time
 from typing import Callable, Optional
 
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 import rclpy
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import (
+    Executor, ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor)
 from rclpy.node import Node
 from rclpy.qos import (
     DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy)
 from rclpy.qos_overriding_options import QoSOverridingOptions
+from rclpy.utilities import remove_ros_args
 
 from observer_ros.core.config import PARAMETERS, System, validate_parameters
 from observer_ros.core.errors import ConfigError, DesignError
@@ -124,26 +128,86 @@ class ConfiguredNode(Node):
             self.get_logger().warning(text + ' (reported once)')
 
 
+#: Executors a node can spin on (``--executor``); the first is the default, the fastest in
+#: BENCHMARKS.md (latency and closed-loop rate).
+EXECUTORS = ('events', 'single', 'multi')
+
+
+def make_executor(name: str, context=None) -> Executor:
+    """
+    Return the executor called ``name``.
+
+    ``'events'`` is rclpy's ``rclpy.experimental.EventsExecutor``, ``'single'`` the
+    ``SingleThreadedExecutor``, ``'multi'`` the ``MultiThreadedExecutor``.
+    """
+    if name == 'events':
+        from rclpy.experimental import EventsExecutor
+        return EventsExecutor(context=context)
+    if name == 'multi':
+        return MultiThreadedExecutor(context=context)
+    if name == 'single':
+        return SingleThreadedExecutor(context=context)
+    raise ValueError(f'executor: expected one of {", ".join(EXECUTORS)}, got {name!r}')
+
+
+def spin_until(executor: Executor, done: Optional[Callable[[], bool]] = None,
+               timeout_sec: Optional[float] = None, context=None) -> bool:
+    """
+    Spin ``executor`` until ``done()`` is true, the timeout passes or ROS shuts down.
+
+    Always ``spin_once`` in a loop: in the rclpy 7.1 wheels ``EventsExecutor.spin()`` (and
+    ``spin_until_future_complete``) stop delivering messages from other processes, while
+    ``spin_once`` keeps delivering them. Returns whether ``done()`` became true.
+    """
+    deadline = None if timeout_sec is None else time.monotonic() + timeout_sec
+    while rclpy.ok(context=context):
+        if done is not None and done():
+            return True
+        if deadline is not None and time.monotonic() >= deadline:
+            break
+        executor.spin_once(timeout_sec=0.1 if deadline is None else
+                           min(0.1, max(0.0, deadline - time.monotonic())))
+    return done is not None and done()
+
+
+def executor_option(program: str, argv) -> str:
+    """Parse ``--executor`` from the non-ROS arguments (anything else is an error)."""
+    parser = argparse.ArgumentParser(
+        prog=program, description=f'ros2 run observer_ros {program} [--executor NAME] '
+        '--ros-args ...')
+    parser.add_argument('--executor', choices=EXECUTORS, default=EXECUTORS[0],
+                        help="rclpy executor: 'events' (rclpy.experimental.EventsExecutor, the "
+                        "fastest, default), 'single' (SingleThreadedExecutor) or 'multi'")
+    return parser.parse_args(remove_ros_args(argv)[1:]).executor
+
+
 def run_node(factory: Callable[[], Node], program: str, args=None,
-             spin: Optional[Callable[[Node], None]] = None) -> int:
+             done: Optional[Callable[[Node], Callable[[], bool]]] = None) -> int:
     """
     Spin one node the Jazzy way and return the exit status.
 
-    A bad configuration prints one line, ``<program>: error: <parameter>: <reason>``, on
-    stderr and returns 2.
+    ``--executor`` (before ``--ros-args``) picks the executor. ``done(node)`` may return a
+    predicate that ends the spin. A bad configuration prints one line,
+    ``<program>: error: <parameter>: <reason>``, on stderr and returns 2.
     """
-    rclpy.init(args=args)
+    argv = sys.argv if args is None else list(args)
+    executor_name = executor_option(program, argv)
+    rclpy.init(args=argv)
     try:
         node = factory()
     except (ConfigError, DesignError) as e:
         print(f'{program}: error: {e}', file=sys.stderr)
         rclpy.try_shutdown()
         return 2
+    executor = make_executor(executor_name)
     try:
-        (spin or rclpy.spin)(node)
+        executor.add_node(node)
+        spin_until(executor, done(node) if done else None)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        executor.remove_node(node)
         node.destroy_node()
+        executor.shutdown()
         rclpy.try_shutdown()
     return 0
