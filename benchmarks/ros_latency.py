@@ -37,9 +37,8 @@ from sensor_msgs.msg import JointState
 
 from benchmarks.common import CONFIG_DIR, pyplot, REPOSITORY, Section
 from observer_ros.ros.messages import ns_to_stamp, stamp_to_ns
-from observer_ros.ros.parameters import PUBLISHER_QOS, SUBSCRIPTION_QOS
+from observer_ros.ros.parameters import EXECUTORS, PUBLISHER_QOS, SUBSCRIPTION_QOS
 
-EXECUTORS = ('single', 'multi', 'events')
 CONFIG = CONFIG_DIR / 'seed001_fourth_order.yaml'
 
 
@@ -157,10 +156,14 @@ def run(smoke: bool, figures) -> Section:
                 'callback (both ways through DDS).', '')
     section.table(['executor', 'observer p50', 'observer p99', 'relay p50', 'relay p99',
                    'observer / relay p50', 'lost'], rows)
-    section.add(f'Fastest executor for the observer: **{fastest}**.', '')
+    section.add(f'Fastest executor for the observer: **{fastest}**; the nodes spin '
+                f'**{EXECUTORS[0]}** unless given `--executor`. The observer reads and writes '
+                'the CDR bytes (raw subscription, no message objects); the relay builds '
+                'message objects as a plain rclpy node does, which is why the observer can '
+                'be the faster of the two.', '')
     ratio = {name: np.nanpercentile(v['x_hat'], 50) / np.nanpercentile(v['relay'], 50)
              for name, v in results.items()}
-    section.met = ratio['single'] <= 1.2
+    section.met = bool(ratio[EXECUTORS[0]] <= 1.2)
     plt = pyplot()
     figure, axis = plt.subplots(figsize=(7, 3.5))
     data, labels = [], []

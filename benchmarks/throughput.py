@@ -91,8 +91,9 @@ def run(smoke: bool, figures) -> Section:
                 f'to {difference:.1e} (same arithmetic, other order).', '')
     section.table(['path', 'seconds', 'samples / s'], rows)
     section.add(f'Estimator part: {ours and theirs / ours:.2f}x the speed of '
-                'control.forced_response. The rest of the end-to-end time is the `rosbags` '
-                'reader (pure Python) and the CDR decoding.', '')
+                'control.forced_response. The rest of the end-to-end time is reading the bag '
+                "(MCAP: the package's one-pass reader; sqlite3: `rosbags`) and the CDR "
+                'decoding.', '')
     section.met = (min(rates['replay, mcap'], rates['replay, sqlite3']) >= 100_000
                    and rates['estimator part'] > rates['control.forced_response'])
     plt = pyplot()

@@ -15,17 +15,20 @@
 """Bags: CDR codec, record and replay round trips, robot-style layouts and bad bags."""
 
 import subprocess
+import zlib
 
 import numpy as np
 import pytest
-from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.rosbag2 import CompressionFormat, CompressionMode, Reader, StoragePlugin, Writer
 
 from bag_support import (float64_array, JOINT_STATE, joint_state, robot_parameters, serialize,
                          TYPESTORE, write_robot_bag)
 from conftest import CONFIG_DIR
 from observer_ros.bags.cdr import decode, DecodeError, Encoder, MessageReader, MessageWriter
+from observer_ros.bags.mcap import McapError, read_mcap_topics
 from observer_ros.bags.replay import replay_bag, write_replay
-from observer_ros.bags.storage import BagError, read_topic, TopicToWrite, write_bag
+from observer_ros.bags.storage import (BagError, read_topic, read_topics, TopicRequest,
+                                      TopicToWrite, write_bag)
 from observer_ros.core.config import load_parameter_file, validate_parameters
 from ros_support import run_lockstep
 
@@ -108,6 +111,86 @@ def test_encode_equals_rosbags(kind):
         assert raw == serialize(expected)
     decoded = decode(raws, kind, 'position', ['x1', 'x2', 'x3'])
     assert np.array_equal(decoded[1], values)
+
+
+def write_shuffled_bag(path, compression):
+    """Three topics, log times out of order and tied, many chunks; return what was written."""
+    rng = np.random.default_rng(4)
+    written = {'/a': [], '/b': []}
+    writer = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)
+    if compression:
+        writer.set_compression(compression, CompressionFormat.ZSTD)
+    with writer:
+        connections = {topic: writer.add_connection(topic, JOINT_STATE, typestore=TYPESTORE)
+                       for topic in ('/a', '/other', '/b')}
+        for index in range(3000):
+            topic = ('/a', '/other', '/b')[index % 3]
+            log_time = int(rng.integers(0, 500)) * 10**6  # ties and backward steps
+            raw = serialize(joint_state(log_time + 1, ['y1'], rng.standard_normal(1),
+                                        frame_id='f' * int(rng.integers(0, 200))))
+            writer.write(connections[topic], log_time, raw)
+            if topic in written:
+                written[topic].append((log_time, raw))
+    return written
+
+
+@pytest.mark.parametrize('compression', [None, CompressionMode.STORAGE, CompressionMode.FILE,
+                                         CompressionMode.MESSAGE])
+def test_mcap_reading_equals_rosbags(tmp_path, compression):
+    path = tmp_path / 'bag'
+    write_shuffled_bag(path, compression)
+    with Reader(path) as reader:
+        expected = {topic: [(t, bytes(raw)) for c, t, raw in reader.messages(
+            [c for c in reader.connections if c.topic == topic])] for topic in ('/a', '/b')}
+    requests = [TopicRequest(topic, 'joint_state', 'position', ['y1']) for topic in ('b', '/a')]
+    topics = read_topics(path, requests)
+    for request, data in zip(requests, topics):
+        topic = '/' + request.topic.lstrip('/')
+        assert data.log_times_ns.tolist() == [t for t, _ in expected[topic]]
+        stamps, values, _ = decode([raw for _, raw in expected[topic]], 'joint_state',
+                                   'position', ['y1'])
+        assert np.array_equal(data.stamps_ns, stamps) and np.array_equal(data.values, values)
+    if compression in (None, CompressionMode.STORAGE):  # the MCAP files are read directly
+        found = read_mcap_topics(sorted(path.glob('*.mcap')), ['/a', '/b'])
+        for topic in ('/a', '/b'):
+            assert found[topic][0].tolist() == [t for t, _ in expected[topic]]
+            assert found[topic][1] == [raw for _, raw in expected[topic]]
+
+
+def first_chunk(data):
+    """Offsets of the first chunk's CRC field and of its records, in an MCAP file."""
+    offset = 8
+    while data[offset] != 0x06:
+        offset += 9 + int.from_bytes(data[offset + 1:offset + 9], 'little')
+    body = offset + 9
+    name = int.from_bytes(data[body + 28:body + 32], 'little')
+    records = body + 32 + name + 8
+    size = int.from_bytes(data[body + 16:body + 24], 'little')
+    return body + 24, records, size
+
+
+def test_damaged_mcap_files_are_refused(tmp_path):
+    path = tmp_path / 'bag'
+    write_shuffled_bag(path, None)
+    (file,) = path.glob('*.mcap')
+    data = bytearray(file.read_bytes())
+    with pytest.raises(McapError, match='not an MCAP file'):
+        read_mcap_topics([path / 'metadata.yaml'], ['/a'])
+    # rosbags writes no chunk checksum (0: unchecked); give the first chunk its CRC.
+    crc_at, records, size = first_chunk(data)
+    data[crc_at:crc_at + 4] = zlib.crc32(data[records:records + size]).to_bytes(4, 'little')
+    file.write_bytes(bytes(data))
+    good = read_topic(path, '/a', 'joint_state', 'position', ['y1'])
+    data[records + size - 3] ^= 0xFF  # the last message's data: the checksum no longer matches
+    file.write_bytes(bytes(data))
+    with pytest.raises(BagError, match='checksum mismatch'):
+        read_topic(path, '/a', 'joint_state', 'position', ['y1'])
+    file.write_bytes(bytes(data[:len(data) // 3]))
+    with pytest.raises(BagError):
+        read_topic(path, '/a', 'joint_state', 'position', ['y1'])
+    with pytest.raises(McapError, match='truncated'):
+        read_mcap_topics([file], ['/a'])
+    assert good.values.shape == (1000, 1)
 
 
 @pytest.mark.parametrize('storage', sorted(STORAGES))
