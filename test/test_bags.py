@@ -27,8 +27,8 @@ from conftest import CONFIG_DIR
 from observer_ros.bags.cdr import decode, DecodeError, Encoder, MessageReader, MessageWriter
 from observer_ros.bags.mcap import McapError, read_mcap_topics
 from observer_ros.bags.replay import replay_bag, write_replay
-from observer_ros.bags.storage import (BagError, read_topic, read_topics, TopicRequest,
-                                      TopicToWrite, write_bag)
+from observer_ros.bags.storage import (
+    BagError, read_topic, read_topics, TopicRequest, TopicToWrite, write_bag)
 from observer_ros.core.config import load_parameter_file, validate_parameters
 from ros_support import run_lockstep
 

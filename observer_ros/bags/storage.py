@@ -88,7 +88,7 @@ def _reader(path):
 
 
 def _mcap_files(reader, path) -> Optional[list]:
-    """The bag's MCAP files when :mod:`observer_ros.bags.mcap` can read them, else None."""
+    """Return the bag's MCAP files when :mod:`observer_ros.bags.mcap` reads them, else None."""
     path = Path(path)
     if path.is_file():
         return [path] if path.suffix == '.mcap' else None
