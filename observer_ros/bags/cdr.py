@@ -212,32 +212,52 @@ def decode(raws: Sequence[bytes], kind: str, field: str, names: Sequence[str]) -
 STAMP = struct.Struct('<iI')
 
 
+#: Layouts a :class:`MessageReader` remembers (several publishers on one topic).
+READER_LAYOUTS = 8
+
+
+@dataclass(frozen=True)
+class _Known:
+    """A layout a reader has seen: its fixed bytes and where the wanted values are."""
+
+    size: int
+    segments: tuple  # (start, bytes) that must match
+    offset: int
+    values: struct.Struct
+    order: list
+
+    def matches(self, raw) -> bool:
+        return len(raw) == self.size and all(
+            raw[start:start + len(expected)] == expected for start, expected in self.segments)
+
+
 class MessageReader:
     """
     Decode one serialized message at a time (the online path of :func:`decode`).
 
-    The layout of the last message is kept: a message that matches it byte for byte outside
-    the stamp and the doubles is read with two ``struct`` calls; any other is parsed.
+    The last few layouts are kept, newest first: a message that matches one byte for byte
+    where the layout is defined is read with two ``struct`` calls; any other is parsed.
     """
 
     def __init__(self, kind: str, field: str, names: Sequence[str]) -> None:
         self.kind = kind
         self.field = field
         self.names = list(names)
-        self._size = -1
-        self._segments: tuple = ()
-        self._values: Optional[struct.Struct] = None
-        self._offset = 0
-        self._order: list = []
+        self._known: list = []
 
-    def _learn(self, raw) -> None:
+    def _layout(self, raw) -> _Known:
+        for index, known in enumerate(self._known):
+            if known.matches(raw):
+                if index:
+                    self._known.insert(0, self._known.pop(index))
+                return known
         layout = parse_layout(raw, self.kind)
         offset, count, order = _select(layout, self.kind, self.field, self.names)
-        self._segments = tuple((start, bytes(raw[start:end])) for start, end in layout.fixed)
-        self._size = layout.size
-        self._offset = offset
-        self._values = struct.Struct(f'<{count}d')
-        self._order = order
+        known = _Known(layout.size, tuple((start, bytes(raw[start:end]))
+                                          for start, end in layout.fixed),
+                       offset, struct.Struct(f'<{count}d'), order)
+        self._known = [known, *self._known[:READER_LAYOUTS - 1]]
+        return known
 
     def read(self, raw: bytes) -> tuple:
         """
@@ -249,16 +269,13 @@ class MessageReader:
             Not little-endian plain CDR, truncated, or without the wanted values.
 
         """
-        if len(raw) != self._size or not all(
-                raw[start:start + len(expected)] == expected
-                for start, expected in self._segments):
-            self._learn(raw)
+        known = self._layout(raw)
         stamp = 0
         if self.kind == 'joint_state':
             seconds, nanoseconds = STAMP.unpack_from(raw, ORIGIN)
             stamp = seconds * 1_000_000_000 + nanoseconds
-        values = self._values.unpack_from(raw, self._offset)
-        return stamp, [values[i] for i in self._order]
+        values = known.values.unpack_from(raw, known.offset)
+        return stamp, [values[i] for i in known.order]
 
 
 class MessageWriter:
