@@ -30,15 +30,19 @@ def generate_launch_description():
     params_file = LaunchConfiguration('params_file')
     use_sim_time = LaunchConfiguration('use_sim_time')
     common = [params_file, {'use_sim_time': use_sim_time}]
+    executor = ['--executor', LaunchConfiguration('executor')]
     return LaunchDescription([
         DeclareLaunchArgument('params_file', default_value=default_params,
                               description='Parameter file shared by the three nodes.'),
         DeclareLaunchArgument('use_sim_time', default_value='false',
                               description='Run on /clock (lockstep plant or a bag).'),
+        DeclareLaunchArgument('executor', default_value='events',
+                              choices=['events', 'single', 'multi'],
+                              description='rclpy executor of every node.'),
         Node(package='observer_ros', executable='plant_simulator', name='plant_simulator',
-             parameters=common, output='screen'),
+             parameters=common, arguments=executor, output='screen'),
         Node(package='observer_ros', executable='observer', name='observer',
-             parameters=common, output='screen'),
+             parameters=common, arguments=executor, output='screen'),
         Node(package='observer_ros', executable='state_feedback', name='state_feedback',
-             parameters=common, output='screen'),
+             parameters=common, arguments=executor, output='screen'),
     ])

@@ -28,6 +28,7 @@ import pytest
 from conftest import CONFIG_DIR, REPOSITORY
 from observer_ros.core.config import load_parameter_file, validate_parameters
 from observer_ros.core.evaluation import align, decay_rate, settling_time
+from observer_ros.ros.parameters import EXECUTORS
 from observer_ros.ros.recorder import TopicRecorder
 from ros_support import executor_with, NodeProcess, ros_context, run_lockstep, spin_until
 
@@ -157,9 +158,14 @@ def test_launch_file_starts_the_three_installed_executables():
     assert executables == {'plant_simulator', 'observer', 'state_feedback'}
     assert all(k['package'].value == 'observer_ros' for k in keywords)
     assert all(ast.unparse(k['parameters']) == 'common' for k in keywords)
-    arguments = {call.args[0].value for call in ast.walk(tree) if isinstance(call, ast.Call)
-                 and getattr(call.func, 'id', None) == 'DeclareLaunchArgument'}
-    assert arguments == {'params_file', 'use_sim_time'}
+    assert all(ast.unparse(k['arguments']) == 'executor' for k in keywords)
+    assert "executor = ['--executor', LaunchConfiguration('executor')]" in source
+    declared = {call.args[0].value: {k.arg: k.value for k in call.keywords}
+                for call in ast.walk(tree) if isinstance(call, ast.Call)
+                and getattr(call.func, 'id', None) == 'DeclareLaunchArgument'}
+    assert set(declared) == {'params_file', 'use_sim_time', 'executor'}
+    assert ast.literal_eval(declared['executor']['choices']) == list(EXECUTORS)
+    assert declared['executor']['default_value'].value == EXECUTORS[0]
     setup = (REPOSITORY / 'setup.py').read_text()
     for executable in executables:
         assert f"'{executable} = observer_ros.nodes.{executable}:main'" in setup
