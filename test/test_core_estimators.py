@@ -286,6 +286,37 @@ def test_reduced_order_jitter(plant, reduced_design, seed):
     assert np.linalg.norm(actual[-1]) <= 2.0 * np.linalg.norm(steady[-1])
 
 
+@pytest.mark.parametrize('resolution_ns', [10_000, 1_000_000])
+def test_interval_resolution_rounds_intervals_and_bounds_designs(plant, reduced_design,
+                                                                 resolution_ns):
+    intervals = jittered_intervals(5, 10_000_000, NS, 0.1)
+    assert len(set(intervals)) > 90
+    rng = np.random.default_rng(6)
+    ys = rng.standard_normal((len(intervals) + 1, 1))
+    us = rng.standard_normal((len(intervals) + 1, 1))
+    stamps = np.concatenate(([0], np.cumsum(intervals)))
+    coarse = make_estimator(reduced_design, interval_resolution_ns=resolution_ns)
+    designs = []
+    design_step = coarse.design.step
+    coarse.design.step = lambda dt_ns: designs.append(dt_ns) or design_step(dt_ns)
+    got = coarse.run(stamps, ys, us)
+    # Each interval is designed for its nearest multiple of the resolution, once.
+    rounded = [max(1, round(i / resolution_ns)) * resolution_ns for i in intervals]
+    assert sorted(designs) == sorted(set(rounded))
+    assert len(designs) <= 2_000_000 // resolution_ns + 2  # +-10 % jitter, the last interval
+    # ... which is exactly the estimator on stamps whose intervals are those multiples.
+    exact = make_estimator(reduced_design)
+    expected = exact.run(np.concatenate(([0], np.cumsum(rounded))), ys, us)
+    assert np.array_equal(got, expected)
+    # Changing the resolution forgets the designs of the old one; 0 is exact again.
+    designs.clear()
+    coarse.interval_resolution_ns = 0
+    coarse.step_matrices(intervals[0])
+    assert designs == [intervals[0]]
+    with pytest.raises(ValueError, match='observer.interval_resolution'):
+        coarse.interval_resolution_ns = -1
+
+
 def test_reduced_order_with_input(plant, reduced_design):
     # The held input drives plant and estimator alike: the error does not see it.
     rng = np.random.default_rng(11)

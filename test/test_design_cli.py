@@ -147,6 +147,17 @@ BAD_CASES = [
      r'the modes 2 cannot be moved'),
     ('model: {A: [0.0, 1.0, 0.0, 0.0], B: [0.0, 1.0], C: [1.0, 0.0]}\n'
      "    observer: {type: 'luenberger'}", r'observer\.type: expected one of full_order'),
+    ('model: {A: [0.0, 1.0, 0.0, 0.0], B: [0.0, 1.0], C: [1.0, 0.0]}\n'
+     "    observer: {poles: ['-1', '-2'], interval_resolution: -1.0e-5}",
+     r'observer\.interval_resolution: expected seconds in \[0, observer\.max_gap = 1\.0\), '
+     r'got -1e-05'),
+    ('model: {A: [0.0, 1.0, 0.0, 0.0], B: [0.0, 1.0], C: [1.0, 0.0]}\n'
+     "    observer: {poles: ['-1', '-2'], interval_resolution: 2.0}",
+     r'observer\.interval_resolution: expected seconds in \[0'),
+    ('model: {A: [0.5, 1.0, 0.0, 0.5], B: [0.0, 1.0], C: [1.0, 0.0], dt: 0.01}\n'
+     "    observer: {poles: ['0.1', '0.2'], interval_resolution: 1.0e-5}",
+     r'observer\.interval_resolution: a discrete model \(model\.dt = 0\.01\) has one '
+     r'period; expected 0'),
 ]
 
 

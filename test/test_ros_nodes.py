@@ -192,6 +192,8 @@ REJECTED = {
     'gain and poles': ({'observer__gain': [22.0, 59.0]}, 'not both'),
     'wrong type': ({'observer__poles': 3.5}, 'observer.poles: expected a list'),
     'read-only model': ({'model__A': [0.0, 1.0, 0.0, 0.0]}, 'read-only'),
+    'negative interval resolution': ({'observer__interval_resolution': -0.001},
+                                     'observer.interval_resolution: expected seconds'),
 }
 
 
@@ -245,6 +247,12 @@ def test_accepted_parameter_change_has_no_jump(observer_setup):
     old_g = system.make_estimator().step_matrices(PERIOD_NS).g
     assert not np.allclose(old_g[:n] @ np.concatenate([previous, samples[4][1], y]), got)
     assert observer.counters()['restart_gap'] == 0
+    # The interval resolution changes at run time too, without touching the estimate.
+    result = set_parameters(executor, driver.node, 'observer',
+                            observer__interval_resolution=0.001)
+    assert result.successful, result.reason
+    assert observer.stream.estimator.interval_resolution_ns == 1_000_000
+    assert np.array_equal(observer.stream.estimator.estimate, got)
 
 
 def test_feedback_timeout_publishes_the_safe_command_once_per_outage():

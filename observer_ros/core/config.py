@@ -156,6 +156,12 @@ PARAMETERS = (
     ParameterSpec('observer.input_wait', DOUBLE, 0.05,
                   'Wall-clock seconds a measurement may wait for the stamped input of its '
                   'interval before the latest earlier input is used.'),
+    ParameterSpec('observer.interval_resolution', DOUBLE, 0.0,
+                  'Seconds: sample intervals are rounded to a multiple of this before the '
+                  'observer is discretized and designed for them (0: every interval exact). '
+                  'With jittered stamps and a continuous model, e.g. 1e-5 bounds the designs '
+                  'to one per 10 us of interval instead of one per new interval.',
+                  dynamic=True),
     ParameterSpec('observer.max_gap', DOUBLE, 1.0,
                   'Seconds between measurements beyond which (or a backward jump beyond '
                   'which) the estimator restarts from the new sample.'),
@@ -263,7 +269,13 @@ class System:
             raise ConfigError('observer.poles', 'no observer is configured: give '
                               'observer.poles, observer.gain or the Kalman noises')
         return make_estimator(self.observer, self.initial_estimate,
-                              self.parameters['observer.method'])
+                              self.parameters['observer.method'],
+                              self.interval_resolution_ns)
+
+    @property
+    def interval_resolution_ns(self) -> int:
+        """``observer.interval_resolution`` in integer nanoseconds."""
+        return round(self.parameters['observer.interval_resolution'] * 1e9)
 
 
 def flatten_parameters(tree: Mapping, prefix: str = '') -> dict:
@@ -543,6 +555,16 @@ def _check_topics(params: dict) -> None:
         raise ConfigError('plant.samples', f'expected >= 0, got {params["plant.samples"]}')
 
 
+def _check_interval_resolution(params: dict, model: StateSpaceModel) -> None:
+    resolution = params['observer.interval_resolution']
+    if resolution < 0.0 or resolution >= params['observer.max_gap']:
+        raise ConfigError('observer.interval_resolution', f'expected seconds in [0, '
+                          f'observer.max_gap = {params["observer.max_gap"]}), got {resolution}')
+    if resolution and model.is_discrete:
+        raise ConfigError('observer.interval_resolution', f'a discrete model (model.dt = '
+                          f'{model.dt}) has one period; expected 0, got {resolution}')
+
+
 def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> System:
     """
     Validate a flat parameter mapping and build every design it defines.
@@ -582,6 +604,7 @@ def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> Syst
         if complete['observer.type'] == 'kalman':
             parameter = 'observer.process_noise'
         raise _named(parameter, e) from e
+    _check_interval_resolution(complete, model)
     initial = complete['observer.initial_state']
     initial_estimate = (vector_from_flat('observer.initial_state', initial, model.n_states)
                         if initial else np.zeros(model.n_states))

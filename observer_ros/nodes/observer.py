@@ -91,6 +91,7 @@ class ObserverNode(ConfiguredNode):
         estimator.replace_design(step_design_for(system.observer,
                                                  system.parameters['observer.method']))
         estimator.initial_state = system.initial_estimate
+        estimator.interval_resolution_ns = system.interval_resolution_ns
 
     def _now_ns(self) -> int:
         return self.get_clock().now().nanoseconds

@@ -36,10 +36,11 @@ def step_design_for(design: ObserverDesign, method: str = 'auto') -> StepDesign:
     return FullOrderStep(design, method)
 
 
-def make_estimator(design: ObserverDesign, initial_state=None,
-                   method: str = 'auto') -> Estimator:
+def make_estimator(design: ObserverDesign, initial_state=None, method: str = 'auto',
+                   interval_resolution_ns: int = 0) -> Estimator:
     """Build the runtime :class:`Estimator` for an observer design."""
-    return Estimator(step_design_for(design, method), initial_state)
+    return Estimator(step_design_for(design, method), initial_state,
+                     interval_resolution_ns=interval_resolution_ns)
 
 
 __all__ = ['ChenStep', 'Estimator', 'FullOrderStep', 'KalmanStep', 'ReducedOrderStep',

@@ -141,6 +141,10 @@ class Estimator:
         Estimate before the first sample (zero by default).
     cache_size : int
         Distinct intervals kept (least recently used dropped).
+    interval_resolution_ns : int
+        Round every interval to a multiple of this many nanoseconds (at least one multiple)
+        before its step matrices are looked up or designed; 0 keeps intervals exact. With
+        jittered stamps and a continuous model it bounds the number of designs.
 
     Notes
     -----
@@ -150,7 +154,7 @@ class Estimator:
     """
 
     def __init__(self, design: StepDesign, initial_state=None,
-                 cache_size: int = DEFAULT_CACHE_SIZE) -> None:
+                 cache_size: int = DEFAULT_CACHE_SIZE, interval_resolution_ns: int = 0) -> None:
         self.design = design
         model = design.model
         self.n_states, self.n_inputs = model.n_states, model.n_inputs
@@ -161,6 +165,8 @@ class Estimator:
         self._cache_size = cache_size
         self._last_dt_ns: Optional[int] = None
         self._last_step_matrices: Optional[StepMatrices] = None
+        self._resolution_ns = 0
+        self.interval_resolution_ns = interval_resolution_ns
         self._stamp: Optional[int] = None
         self._x = self.initial_state.copy()
         self._start = self.initial_state
@@ -206,18 +212,37 @@ class Estimator:
         """Step matrices used by the last update."""
         return self._step
 
+    @property
+    def interval_resolution_ns(self) -> int:
+        """Intervals are rounded to multiples of this (0: exact); see the class notes."""
+        return self._resolution_ns
+
+    @interval_resolution_ns.setter
+    def interval_resolution_ns(self, value: int) -> None:
+        value = int(value)
+        if value < 0:
+            raise ValueError(f'observer.interval_resolution: expected >= 0 ns, got {value}')
+        if value != self._resolution_ns:
+            self._resolution_ns = value
+            self._cache.clear()
+            self._last_dt_ns = self._last_step_matrices = None
+
     def step_matrices(self, dt_ns: int) -> StepMatrices:
         """Return the (cached) step matrices for an interval in nanoseconds."""
         if dt_ns == self._last_dt_ns:
             return self._last_step_matrices
-        step = self._cache.get(dt_ns)
+        key = dt_ns
+        resolution = self._resolution_ns
+        if resolution:
+            key = max(1, (dt_ns + resolution // 2) // resolution) * resolution
+        step = self._cache.get(key)
         if step is None:
-            step = self.design.step(dt_ns)
-            self._cache[dt_ns] = step
+            step = self.design.step(key)
+            self._cache[key] = step
             if len(self._cache) > self._cache_size:
                 self._cache.popitem(last=False)
         else:
-            self._cache.move_to_end(dt_ns)
+            self._cache.move_to_end(key)
         self._last_dt_ns, self._last_step_matrices = dt_ns, step
         return step
 
