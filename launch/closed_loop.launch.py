@@ -37,7 +37,7 @@ def generate_launch_description():
         DeclareLaunchArgument('use_sim_time', default_value='false',
                               description='Run on /clock (lockstep plant or a bag).'),
         DeclareLaunchArgument('executor', default_value='events',
-                              choices=['events', 'single', 'multi'],
+                              choices=['events', 'single'],
                               description='rclpy executor of every node.'),
         Node(package='observer_ros', executable='plant_simulator', name='plant_simulator',
              parameters=common, arguments=executor, output='screen'),

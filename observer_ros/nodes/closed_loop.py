@@ -118,7 +118,7 @@ def main(args=None) -> int:
                         help='bag storage for --record (default: mcap)')
     parser.add_argument('--executor', choices=EXECUTORS, default=EXECUTORS[0],
                         help="rclpy executor: 'events' (rclpy.experimental.EventsExecutor, the "
-                        "fastest, default), 'single' (SingleThreadedExecutor) or 'multi'")
+                        "fastest, default) or 'single' (SingleThreadedExecutor)")
     options = parser.parse_args(remove_ros_args(argv)[1:])
     if options.record and os.path.exists(options.record):
         parser.error(f'--record: {options.record} exists already')
