@@ -97,9 +97,10 @@ def _mcap_files(reader, path) -> Optional[list]:
     import yaml
     with open(path / 'metadata.yaml', encoding='utf-8') as stream:
         info = yaml.safe_load(stream)['rosbag2_bagfile_information']
-    if info.get('storage_identifier') != 'mcap':
+    names = info.get('relative_file_paths')
+    if info.get('storage_identifier') != 'mcap' or not names:
         return None
-    return [path / name for name in info['relative_file_paths']]
+    return [path / name for name in names]
 
 
 def bag_topics(path) -> dict:
