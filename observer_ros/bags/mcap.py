@@ -51,11 +51,15 @@ class McapError(ValueError):
 
 
 def _decompress(data: bytes, compression: str, size: int) -> bytes:
-    if compression == 'zstd':
+    if compression == 'zstd':  # whichever zstd module the installed rosbags brought
         try:
             from compression import zstd
         except ImportError:
-            from backports import zstd
+            try:
+                from backports import zstd
+            except ImportError:
+                import zstandard
+                return zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
         return zstd.decompress(data)
     if compression == 'lz4':
         from lz4.frame import decompress
