@@ -155,9 +155,9 @@ def spin_until(executor: Executor, done: Optional[Callable[[], bool]] = None,
     """
     Spin ``executor`` until ``done()`` is true, the timeout passes or ROS shuts down.
 
-    Always ``spin_once`` in a loop: in the rclpy 7.1 wheels ``EventsExecutor.spin()`` (and
-    ``spin_until_future_complete``) stop delivering messages from other processes, while
-    ``spin_once`` keeps delivering them. Returns whether ``done()`` became true.
+    Always ``spin_once`` in a loop: in the rclpy 7.1 wheels ``EventsExecutor.spin()``
+    delivers no message from another process, while ``spin_once`` delivers them. Returns
+    whether ``done()`` became true.
     """
     deadline = None if timeout_sec is None else time.monotonic() + timeout_sec
     while rclpy.ok(context=context):
