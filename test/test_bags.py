@@ -28,7 +28,7 @@ from observer_ros.bags.cdr import decode, DecodeError, Encoder, MessageReader, M
 from observer_ros.bags.mcap import McapError, read_mcap_topics
 from observer_ros.bags.replay import replay_bag, write_replay
 from observer_ros.bags.storage import (
-    BagError, read_topic, read_topics, TopicRequest, TopicToWrite, write_bag)
+    _mcap_files, BagError, read_topic, read_topics, TopicRequest, TopicToWrite, write_bag)
 from observer_ros.core.config import load_parameter_file, validate_parameters
 from ros_support import run_lockstep
 
@@ -150,11 +150,16 @@ def test_mcap_reading_equals_rosbags(tmp_path, compression):
         stamps, values, _ = decode([raw for _, raw in expected[topic]], 'joint_state',
                                    'position', ['y1'])
         assert np.array_equal(data.stamps_ns, stamps) and np.array_equal(data.values, values)
+    with Reader(path) as reader:  # which reader read_topics took
+        files = _mcap_files(reader, path)
     if compression in (None, CompressionMode.STORAGE):  # the MCAP files are read directly
-        found = read_mcap_topics(sorted(path.glob('*.mcap')), ['/a', '/b'])
+        assert files == sorted(path.glob('*.mcap'))
+        found = read_mcap_topics(files, ['/a', '/b'])
         for topic in ('/a', '/b'):
             assert found[topic][0].tolist() == [t for t, _ in expected[topic]]
             assert found[topic][1] == [raw for _, raw in expected[topic]]
+    else:  # compressed files or messages: rosbags decompresses
+        assert files is None
 
 
 def first_chunk(data):
