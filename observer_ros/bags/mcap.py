@@ -24,6 +24,7 @@ builds objects and merges chunks per message; everything else about a bag (metad
 connections, counts) still comes from ``rosbags``.
 """
 
+import mmap
 from pathlib import Path
 import struct
 from typing import Iterable, Sequence
@@ -74,7 +75,7 @@ class _Collector:
         self.by_topic = {topic: ([], []) for topic in topics}
         self.by_channel: dict = {}
 
-    def walk(self, buffer: bytes, offset: int, end: int, top: bool) -> None:
+    def walk(self, buffer, offset: int, end: int, top: bool) -> None:
         by_channel = self.by_channel
         unpack_record = RECORD.unpack_from
         unpack_message = MESSAGE.unpack_from
@@ -102,7 +103,7 @@ class _Collector:
             elif top and opcode in (OP_DATA_END, OP_FOOTER):
                 return
 
-    def _chunk(self, buffer: bytes, body: int, end: int) -> None:
+    def _chunk(self, buffer, body: int, end: int) -> None:
         _, _, size, crc, name_size = CHUNK.unpack_from(buffer, body)
         start = body + CHUNK.size
         compression = buffer[start:start + name_size].decode('ascii')
@@ -118,7 +119,7 @@ class _Collector:
         if stop - start != size:
             raise McapError(f'chunk at byte {body - 9}: {stop - start} bytes, its header says '
                             f'{size}')
-        if crc and zlib.crc32(memoryview(records)[start:stop]) != crc:
+        if crc and zlib.crc32(records[start:stop]) != crc:
             raise McapError(f'chunk at byte {body - 9}: checksum mismatch')
         self.walk(records, start, stop, top=False)
 
@@ -138,16 +139,18 @@ def read_mcap_topics(paths: Sequence[Path], topics: Sequence[str]) -> dict:
     """
     collector = _Collector(topics)
     for path in paths:
-        data = Path(path).read_bytes()
-        if data[:len(MAGIC)] != MAGIC:
-            raise McapError(f'{path}: not an MCAP file')
-        collector.by_channel = {}  # channel ids are per file
-        try:
-            collector.walk(data, len(MAGIC), len(data), top=True)
-        except (struct.error, UnicodeDecodeError) as e:
-            raise McapError(f'{path}: corrupt record ({e})') from e
-        except McapError as e:
-            raise McapError(f'{path}: {e}') from e
+        with open(path, 'rb') as stream:
+            if stream.read(len(MAGIC)) != MAGIC:
+                raise McapError(f'{path}: not an MCAP file')
+            collector.by_channel = {}  # channel ids are per file
+            # Mapped, not read: only the kept messages are copied into memory.
+            with mmap.mmap(stream.fileno(), 0, access=mmap.ACCESS_READ) as data:
+                try:
+                    collector.walk(data, len(MAGIC), len(data), top=True)
+                except (struct.error, UnicodeDecodeError) as e:
+                    raise McapError(f'{path}: corrupt record ({e})') from e
+                except McapError as e:
+                    raise McapError(f'{path}: {e}') from e
     result = {}
     for topic, (times, raws) in collector.by_topic.items():
         times = np.array(times, dtype=np.int64)
