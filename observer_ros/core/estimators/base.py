@@ -214,7 +214,7 @@ class Estimator:
 
     @property
     def interval_resolution_ns(self) -> int:
-        """Intervals are rounded to multiples of this (0: exact); see the class notes."""
+        """Intervals are rounded to multiples of this (0: exact); see the class parameters."""
         return self._resolution_ns
 
     @interval_resolution_ns.setter
