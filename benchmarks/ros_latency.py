@@ -37,7 +37,7 @@ from sensor_msgs.msg import JointState
 
 from benchmarks.common import CONFIG_DIR, pyplot, REPOSITORY, Section
 from observer_ros.ros.messages import ns_to_stamp, stamp_to_ns
-from observer_ros.ros.parameters import EXECUTORS, PUBLISHER_QOS, SUBSCRIPTION_QOS
+from observer_ros.ros.parameters import EXECUTORS, publisher_qos, subscription_qos
 
 CONFIG = CONFIG_DIR / 'seed001_fourth_order.yaml'
 
@@ -66,13 +66,13 @@ class Probe(Node):
 
     def __init__(self, context) -> None:
         super().__init__('latency_probe', context=context)
-        self.publishers_ = {topic: self.create_publisher(JointState, topic, PUBLISHER_QOS)
+        self.publishers_ = {topic: self.create_publisher(JointState, topic, publisher_qos())
                             for topic in ('u', 'y', 'relay_in')}
         self.arrivals = {}
         for topic in ('x_hat', 'relay'):
             self.create_subscription(JointState, topic,
                                      lambda m, t=topic: self._on_answer(t, m),
-                                     SUBSCRIPTION_QOS)
+                                     subscription_qos())
 
     def _on_answer(self, topic: str, message: JointState) -> None:
         self.arrivals[(topic, stamp_to_ns(message.header.stamp))] = time.perf_counter_ns()

@@ -24,7 +24,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from observer_ros.nodes.observer import ObserverNode
-from observer_ros.ros.parameters import PUBLISHER_QOS, run_node, SUBSCRIPTION_QOS
+from observer_ros.ros.parameters import publisher_qos, run_node, subscription_qos
 
 
 class Relay(Node):
@@ -32,8 +32,8 @@ class Relay(Node):
 
     def __init__(self) -> None:
         super().__init__('relay')
-        self.publisher = self.create_publisher(JointState, 'relay', PUBLISHER_QOS)
-        self.create_subscription(JointState, 'y', self._on_message, SUBSCRIPTION_QOS)
+        self.publisher = self.create_publisher(JointState, 'relay', publisher_qos())
+        self.create_subscription(JointState, 'y', self._on_message, subscription_qos())
 
     def _on_message(self, message: JointState) -> None:
         self.publisher.publish(JointState(header=message.header, name=list(message.name),

@@ -22,8 +22,11 @@ bit, that lockstep runs repeat exactly, and that a step reference is tracked.
 
 import numpy as np
 import pytest
+from rclpy.parameter import Parameter
+from rclpy.qos import ReliabilityPolicy
 
 from observer_ros.core.evaluation import align, decay_rate, settling_time
+from observer_ros.ros.recorder import RECORDER_DEPTH
 from ros_support import offline_estimates, overrides, run_lockstep
 
 CLOSED_LOOP_CONFIGS = ['seed001_third_order.yaml', 'seed001_third_order_chen.yaml',
@@ -103,3 +106,17 @@ def test_events_executor_runs_the_same_lockstep_loop():
     for topic in ('y', 'u', 'x_true', 'x_hat'):
         assert np.array_equal(events[2][topic][0], single[2][topic][0]), topic
         assert np.array_equal(events[2][topic][1], single[2][topic][1]), topic
+
+
+def test_qos_override_of_one_topic_stays_on_it_and_the_recorder_follows_it():
+    # rclpy writes overrides into the profile it is given: a shared profile once carried this
+    # override to u and x_true. The recorder subscribes best effort where a publisher offers
+    # it (a reliable subscription would not match) and reliable elsewhere.
+    extra = [Parameter('qos_overrides./y.publisher.reliability', value='best_effort')]
+    _, recorder, arrays, _ = run_lockstep('seed003_full_order.yaml', samples=120, extra=extra)
+    offered = {topic: qos.reliability for topic, qos in recorder.qos.items()}
+    assert offered.pop('y') == ReliabilityPolicy.BEST_EFFORT
+    assert set(offered.values()) == {ReliabilityPolicy.RELIABLE}
+    assert {qos.depth for qos in recorder.qos.values()} == {RECORDER_DEPTH}
+    for topic in ('y', 'u', 'x_true', 'x_hat'):
+        assert len(arrays[topic][0]) == 120, topic

@@ -31,8 +31,7 @@ from observer_ros.core.estimators import step_design_for
 from observer_ros.core.streaming import StreamEstimator
 from observer_ros.ros.diagnostics import DiagnosticsPublisher
 from observer_ros.ros.messages import MalformedMessage, VectorCodec
-from observer_ros.ros.parameters import (
-    ConfiguredNode, PUBLISHER_QOS, QOS_OVERRIDES, run_node, SUBSCRIPTION_QOS)
+from observer_ros.ros.parameters import ConfiguredNode, run_node
 
 NANOSECONDS = 1_000_000_000
 
@@ -54,13 +53,10 @@ class ObserverNode(ConfiguredNode):
         self.x_hat_publisher = self._publisher('x_hat')
         self.innovation_publisher = self._publisher('innovation')
         self.covariance_publisher = (
-            self.create_publisher(Float64MultiArray, 'x_hat_covariance', PUBLISHER_QOS,
-                                  qos_overriding_options=QOS_OVERRIDES)
+            self.topic_publisher(Float64MultiArray, 'x_hat_covariance')
             if system.observer.kind == 'kalman' else None)
-        self.create_subscription(self.codecs['y'].message_class, 'y', self._on_measurement,
-                                 SUBSCRIPTION_QOS, qos_overriding_options=QOS_OVERRIDES, raw=True)
-        self.create_subscription(self.codecs['u'].message_class, 'u', self._on_input,
-                                 SUBSCRIPTION_QOS, qos_overriding_options=QOS_OVERRIDES, raw=True)
+        self.topic_subscription(self.codecs['y'].message_class, 'y', self._on_measurement)
+        self.topic_subscription(self.codecs['u'].message_class, 'u', self._on_input)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.wait_timer = self.create_timer(
             system.parameters['observer.input_wait'] or 1e-3, self._on_wait_expired,
@@ -72,8 +68,7 @@ class ObserverNode(ConfiguredNode):
             f'{[complex(p) for p in system.observer.achieved_poles]}')
 
     def _publisher(self, topic: str):
-        return self.create_publisher(self.codecs[topic].message_class, topic, PUBLISHER_QOS,
-                                     qos_overriding_options=QOS_OVERRIDES)
+        return self.topic_publisher(self.codecs[topic].message_class, topic)
 
     def counters(self) -> Counter:
         """Stream and node counters together."""

@@ -38,8 +38,7 @@ from rosgraph_msgs.msg import Clock as ClockMessage
 from observer_ros.core.simulation import PlantSimulator
 from observer_ros.ros.diagnostics import DiagnosticsPublisher
 from observer_ros.ros.messages import MalformedMessage, ns_to_stamp, VectorCodec
-from observer_ros.ros.parameters import (
-    ConfiguredNode, PUBLISHER_QOS, QOS_OVERRIDES, run_node, SUBSCRIPTION_QOS)
+from observer_ros.ros.parameters import ConfiguredNode, publisher_qos, run_node
 
 #: Wall-clock seconds the lockstep plant waits after its peers are discovered.
 LOCKSTEP_SETTLE = 0.5
@@ -66,11 +65,9 @@ class PlantSimulatorNode(ConfiguredNode):
         self.lockstep_subscribers = params['plant.lockstep_subscribers']
         self.codecs = {topic: VectorCodec.for_topic(system, topic)
                        for topic in ('y', 'u', 'x_true', 'u_cmd')}
-        self.publishers_ = {topic: self.create_publisher(
-            self.codecs[topic].message_class, topic, PUBLISHER_QOS,
-            qos_overriding_options=QOS_OVERRIDES) for topic in ('y', 'u', 'x_true')}
-        self.create_subscription(self.codecs['u_cmd'].message_class, 'u_cmd', self._on_command,
-                                 SUBSCRIPTION_QOS, qos_overriding_options=QOS_OVERRIDES, raw=True)
+        self.publishers_ = {topic: self.topic_publisher(self.codecs[topic].message_class, topic)
+                            for topic in ('y', 'u', 'x_true')}
+        self.topic_subscription(self.codecs['u_cmd'].message_class, 'u_cmd', self._on_command)
         self.command = None
         self.command_stamp = None
         self.index = 0
@@ -80,7 +77,7 @@ class PlantSimulatorNode(ConfiguredNode):
         self.diagnostics = DiagnosticsPublisher(self, lambda: self.counters)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         if self.lockstep:
-            self.clock_publisher = self.create_publisher(ClockMessage, '/clock', PUBLISHER_QOS)
+            self.clock_publisher = self.create_publisher(ClockMessage, '/clock', publisher_qos())
             self.awaiting = None
             self.peers_seen_ns = None
             self.start_timer = self.create_timer(0.05, self._try_start, clock=steady)

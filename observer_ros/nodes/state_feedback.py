@@ -26,8 +26,7 @@ from observer_ros.core.control import StateFeedbackLaw
 from observer_ros.core.errors import ConfigError
 from observer_ros.ros.diagnostics import DiagnosticsPublisher
 from observer_ros.ros.messages import MalformedMessage, VectorCodec
-from observer_ros.ros.parameters import (
-    ConfiguredNode, PUBLISHER_QOS, QOS_OVERRIDES, run_node, SUBSCRIPTION_QOS)
+from observer_ros.ros.parameters import ConfiguredNode, run_node
 
 NANOSECONDS = 1_000_000_000
 
@@ -53,14 +52,10 @@ class StateFeedbackNode(ConfiguredNode):
         self.reference = None
         self.last_arrival_ns = self.get_clock().now().nanoseconds
         self.stale = False
-        self.publisher = self.create_publisher(
-            self.codecs['u_cmd'].message_class, 'u_cmd', PUBLISHER_QOS,
-            qos_overriding_options=QOS_OVERRIDES)
-        self.create_subscription(self.codecs['x_hat'].message_class, 'x_hat', self._on_estimate,
-                                 SUBSCRIPTION_QOS, qos_overriding_options=QOS_OVERRIDES, raw=True)
-        self.create_subscription(self.codecs['reference'].message_class, 'reference',
-                                 self._on_reference, SUBSCRIPTION_QOS,
-                                 qos_overriding_options=QOS_OVERRIDES, raw=True)
+        self.publisher = self.topic_publisher(self.codecs['u_cmd'].message_class, 'u_cmd')
+        self.topic_subscription(self.codecs['x_hat'].message_class, 'x_hat', self._on_estimate)
+        self.topic_subscription(self.codecs['reference'].message_class, 'reference',
+                                self._on_reference)
         self.watchdog = self.create_timer(system.feedback.timeout / 2.0, self._check_stale)
         self.diagnostics = DiagnosticsPublisher(self, lambda: self.counters)
         self.get_logger().info(f'K = {system.feedback.design.gain.tolist()}')

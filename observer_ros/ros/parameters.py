@@ -31,9 +31,11 @@ from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 import rclpy
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.publisher import Publisher
 from rclpy.qos import (
     DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy)
 from rclpy.qos_overriding_options import QoSOverridingOptions
+from rclpy.subscription import Subscription
 from rclpy.utilities import remove_ros_args
 
 from observer_ros.core.config import PARAMETERS, System, validate_parameters
@@ -48,11 +50,20 @@ def volatile_qos(depth: int, reliable: bool) -> QoSProfile:
                       durability=DurabilityPolicy.VOLATILE)
 
 
-#: Subscriptions are best effort, which matches reliable and best-effort publishers alike.
-SUBSCRIPTION_QOS = volatile_qos(10, reliable=False)
+def subscription_qos() -> QoSProfile:
+    """
+    Return the QoS of the nodes' subscriptions: best effort, which matches every publisher.
 
-#: Publishers are reliable: every subscriber QoS can match them.
-PUBLISHER_QOS = volatile_qos(10, reliable=True)
+    A new profile per call: rclpy writes ``qos_overrides`` into the profile it is given, so
+    a shared one would carry one topic's override to every later topic.
+    """
+    return volatile_qos(10, reliable=False)
+
+
+def publisher_qos() -> QoSProfile:
+    """Return the QoS of the nodes' publishers: reliable, which every subscription matches."""
+    return volatile_qos(10, reliable=True)
+
 
 #: Users may override history, depth and reliability per topic with the standard
 #: ``qos_overrides./<topic>.<publisher|subscription>.<policy>`` parameters.
@@ -118,6 +129,20 @@ class ConfiguredNode(Node):
 
     def apply_system(self, previous: System, system: System) -> None:
         """Switch to a newly accepted configuration (called after the parameters are set)."""
+
+    def topic_publisher(self, message_class, topic: str) -> Publisher:
+        """Create a publisher with :func:`publisher_qos` (``qos_overrides`` apply)."""
+        return self.create_publisher(message_class, topic, publisher_qos(),
+                                     qos_overriding_options=QOS_OVERRIDES)
+
+    def topic_subscription(self, message_class, topic: str, callback) -> Subscription:
+        """
+        Create a subscription with :func:`subscription_qos` (``qos_overrides`` apply).
+
+        ``callback`` receives the serialized bytes (see ``VectorCodec.decode``).
+        """
+        return self.create_subscription(message_class, topic, callback, subscription_qos(),
+                                        qos_overriding_options=QOS_OVERRIDES, raw=True)
 
     def warn_once(self, key: str, text: str) -> None:
         """Log a warning the first time ``key`` occurs."""

@@ -19,10 +19,28 @@ import time
 
 import numpy as np
 from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from observer_ros.core.config import System
 from observer_ros.ros.messages import MalformedMessage, VectorCodec
-from observer_ros.ros.parameters import SUBSCRIPTION_QOS
+from observer_ros.ros.parameters import volatile_qos
+
+#: Messages a recorder's subscription queues while its callback is behind.
+RECORDER_DEPTH = 1000
+
+
+def recording_qos(node: Node, topic: str) -> QoSProfile:
+    """
+    Subscription QoS that records every message the publishers of ``topic`` deliver.
+
+    Reliable with a deep queue, unless a publisher already discovered offers best effort
+    (a reliable subscription would not match it). Publishers not yet discovered are assumed
+    reliable, as the package's publishers are unless overridden.
+    """
+    offered = node.get_publishers_info_by_topic(node.resolve_topic_name(topic))
+    reliable = all(info.qos_profile.reliability == ReliabilityPolicy.RELIABLE
+                   for info in offered)
+    return volatile_qos(RECORDER_DEPTH, reliable=reliable)
 
 
 class TopicRecorder(Node):
@@ -38,6 +56,8 @@ class TopicRecorder(Node):
     keep_messages : bool
         Also keep ``(receive_time_ns, message)`` pairs (for bag writing).
 
+    Each topic's QoS comes from :func:`recording_qos` when the recorder is created.
+
     """
 
     def __init__(self, system: System, topics, node_name: str = 'recorder',
@@ -49,10 +69,12 @@ class TopicRecorder(Node):
         self.received: dict = defaultdict(list)
         self.messages: dict = defaultdict(list)
         self.keep_messages = keep_messages
+        #: The subscription QoS of each topic (see :func:`recording_qos`).
+        self.qos = {topic: recording_qos(self, topic) for topic in topics}
         for topic, codec in self.codecs.items():
             self.create_subscription(codec.message_class, topic,
                                      lambda message, t=topic: self._on_message(t, message),
-                                     SUBSCRIPTION_QOS)
+                                     self.qos[topic])
 
     def _on_message(self, topic: str, message) -> None:
         now = self.get_clock().now().nanoseconds
