@@ -130,12 +130,13 @@ class ConfiguredNode(Node):
     def apply_system(self, previous: System, system: System) -> None:
         """Switch to a newly accepted configuration (called after the parameters are set)."""
 
-    def topic_publisher(self, message_class, topic: str) -> Publisher:
+    def topic_publisher(self, message_class: type, topic: str) -> Publisher:
         """Create a publisher with :func:`publisher_qos` (``qos_overrides`` apply)."""
         return self.create_publisher(message_class, topic, publisher_qos(),
                                      qos_overriding_options=QOS_OVERRIDES)
 
-    def topic_subscription(self, message_class, topic: str, callback) -> Subscription:
+    def topic_subscription(self, message_class: type, topic: str,
+                           callback: Callable[[bytes], None]) -> Subscription:
         """
         Create a subscription with :func:`subscription_qos` (``qos_overrides`` apply).
 
