@@ -37,7 +37,7 @@ from observer_ros.core.plots import write_run_report
 from observer_ros.nodes.observer import ObserverNode
 from observer_ros.nodes.plant_simulator import plant_done, PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
-from observer_ros.ros.parameters import EXECUTORS, make_executor, spin_until
+from observer_ros.ros.parameters import add_executor_argument, make_executor, spin_until
 from observer_ros.ros.recorder import TopicRecorder
 
 
@@ -116,9 +116,7 @@ def main(args=None) -> int:
                         help='write y, u, u_cmd, x_true and x_hat to a new rosbag2 bag at the end')
     parser.add_argument('--storage', choices=STORAGES, default='mcap',
                         help='bag storage for --record (default: mcap)')
-    parser.add_argument('--executor', choices=EXECUTORS, default=EXECUTORS[0],
-                        help="rclpy executor: 'events' (rclpy.experimental.EventsExecutor, the "
-                        "fastest, default) or 'single' (SingleThreadedExecutor)")
+    add_executor_argument(parser)
     options = parser.parse_args(remove_ros_args(argv)[1:])
     if options.record and os.path.exists(options.record):
         parser.error(f'--record: {options.record} exists already')

@@ -196,14 +196,19 @@ def spin_until(executor: Executor, done: Optional[Callable[[], bool]] = None,
     return done is not None and done()
 
 
+def add_executor_argument(parser: argparse.ArgumentParser) -> None:
+    """Add the ``--executor`` option (one of :data:`EXECUTORS`, the first by default)."""
+    parser.add_argument('--executor', choices=EXECUTORS, default=EXECUTORS[0],
+                        help="rclpy executor: 'events' (rclpy.experimental.EventsExecutor, the "
+                        "fastest, default) or 'single' (SingleThreadedExecutor)")
+
+
 def executor_option(program: str, argv) -> str:
     """Parse ``--executor`` from the non-ROS arguments (anything else is an error)."""
     parser = argparse.ArgumentParser(
         prog=program, description=f'ros2 run observer_ros {program} [--executor NAME] '
         '--ros-args ...')
-    parser.add_argument('--executor', choices=EXECUTORS, default=EXECUTORS[0],
-                        help="rclpy executor: 'events' (rclpy.experimental.EventsExecutor, the "
-                        "fastest, default) or 'single' (SingleThreadedExecutor)")
+    add_executor_argument(parser)
     return parser.parse_args(remove_ros_args(argv)[1:]).executor
 
 
