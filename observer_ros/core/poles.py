@@ -62,18 +62,20 @@ def parse_pole(text: str, parameter: str = 'poles') -> complex:
     return value
 
 
-def damping_pair(damping_ratio: float, natural_frequency: float) -> np.ndarray:
+def damping_pair(damping_ratio: float, natural_frequency: float,
+                 parameter: str = 'poles') -> np.ndarray:
     """
     Two poles with damping ratio ``zeta`` and natural frequency ``wn`` (s-plane).
 
     Roots of ``s^2 + 2 zeta wn s + wn^2``: a conjugate pair when ``zeta < 1``, two real
-    poles otherwise.
+    poles otherwise. ``parameter`` names the source in error messages.
     """
     if not (math.isfinite(damping_ratio) and math.isfinite(natural_frequency)):
-        raise ConfigError('poles', 'damping ratio and natural frequency must be finite')
+        raise ConfigError(parameter, f'damping ratio and natural frequency must be finite, '
+                          f'got zeta={damping_ratio}, wn={natural_frequency}')
     if natural_frequency <= 0.0 or damping_ratio < 0.0:
         raise ConfigError(
-            'poles', f'expected zeta >= 0 and wn > 0, got zeta={damping_ratio}, '
+            parameter, f'expected zeta >= 0 and wn > 0, got zeta={damping_ratio}, '
             f'wn={natural_frequency}')
     real = -damping_ratio * natural_frequency
     if damping_ratio < 1.0:
@@ -121,7 +123,7 @@ def parse_poles(entries: Iterable, parameter: str = 'poles') -> np.ndarray:
                 zeta, wn = float(match['zeta']), float(match['wn'])
             except ValueError as e:
                 raise ConfigError(parameter, f'cannot read {entry!r} as zeta and wn') from e
-            poles.extend(damping_pair(zeta, wn))
+            poles.extend(damping_pair(zeta, wn, parameter))
         else:
             poles.append(parse_pole(entry, parameter))
     result = np.array(poles, dtype=complex)
