@@ -77,9 +77,11 @@ def test_real_time_plant_and_observer_processes(config):
     settle = settling_time(system.observer.achieved_poles, system.model.dt)
     rate = decay_rate(system.observer.achieved_poles, system.model.dt)
     duration = settle + 1.0
+    # Pinned at zero: the first measurement alone would already give this plant's state.
+    pinned = f'observer.initial_state:={[0.0] * system.model.n_states}'
     with ros_context() as context:
         recorder = TopicRecorder(system, ('x_true', 'x_hat'), context=context)
-        processes = [NodeProcess('observer', '--ros-args', '--params-file', path),
+        processes = [NodeProcess('observer', '--ros-args', '--params-file', path, '-p', pinned),
                      NodeProcess('plant_simulator', '--ros-args', '--params-file', path)]
         try:
             with executor_with(context, recorder) as executor:

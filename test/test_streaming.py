@@ -139,7 +139,18 @@ def test_reset_returns_to_the_initial_state():
         s.add_measurement(SECOND_NS + k * PERIOD_NS, [2.0])
     s.reset()
     out = s.add_measurement(2 * SECOND_NS, [2.0])
-    np.testing.assert_array_equal(out[0].estimate, [0.0, 0.0])
+    # Unpinned: the first measurement initialises the measured state (C = [1, 0]).
+    np.testing.assert_array_equal(out[0].estimate, [2.0, 0.0])
+    np.testing.assert_array_equal(out[0].innovation, [2.0])
+    _, design = double_integrator()
+    pinned = StreamEstimator(make_estimator(design, initial_state=[0.5, 1.0]), SECOND_NS,
+                             False)
+    for k in range(5):
+        pinned.add_measurement(SECOND_NS + k * PERIOD_NS, [2.0])
+    pinned.reset()
+    out = pinned.add_measurement(2 * SECOND_NS, [2.0])
+    np.testing.assert_array_equal(out[0].estimate, [0.5, 1.0])
+    np.testing.assert_array_equal(out[0].innovation, [1.5])  # y - C x0, not zero
 
 
 @pytest.mark.parametrize('looping', [False, True])

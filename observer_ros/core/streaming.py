@@ -24,12 +24,17 @@ stamped at or after the previous measurement arrives, or until :meth:`flush`.
 
 Bad stamps never crash and never produce NaN: duplicates and small backward steps are
 dropped and counted; a backward jump or a gap longer than ``max_gap_ns`` restarts the
-estimator from the new sample.
+estimator from the new sample; a sample stamped further ahead of the receiver's clock than
+``clock_tolerance_ns`` is dropped (it would otherwise make every real sample after it look
+out of order). Values that are not finite or exceed the :class:`ValueLimits` are dropped
+and counted, and an estimate or innovation beyond its limit is never returned: the
+estimator restarts from its initial state instead.
 """
 
 import bisect
 from collections import Counter
 from dataclasses import dataclass
+import math
 from typing import Optional
 
 import numpy as np
@@ -38,6 +43,28 @@ from observer_ros.core.estimators import Estimator
 
 #: Inputs kept at most (older ones are dropped once no interval can need them).
 MAX_INPUTS = 10_000
+
+
+@dataclass(frozen=True)
+class ValueLimits:
+    """
+    Largest magnitudes a stream accepts (measurements, inputs) and returns (estimates).
+
+    ``math.inf`` (the default) sets no limit; non-finite values are refused regardless.
+    """
+
+    measurement: float = math.inf
+    input: float = math.inf  # noqa: A003 (the role's name)
+    estimate: float = math.inf
+    innovation: float = math.inf
+
+
+def within_limit(vector: np.ndarray, limit: float) -> bool:
+    """Whether every entry of ``vector`` is finite and of magnitude at most ``limit``."""
+    square = vector @ vector  # one dot product decides the common case
+    if square <= limit * limit:
+        return True
+    return bool(np.isfinite(vector).all() and np.abs(vector).max() <= limit)
 
 
 @dataclass(frozen=True)
@@ -71,26 +98,38 @@ class StreamEstimator:
     input_stamped : bool
         False when inputs are stamped on arrival (unstamped messages): then no measurement
         waits for a later input.
+    clock_tolerance_ns : int
+        A sample stamped more than this ahead of the ``now_ns`` given with it is dropped
+        (``future_stamp``); 0 turns the check off.
+    limits : ValueLimits, optional
+        Magnitude limits of the values (none by default).
 
     Attributes
     ----------
     counters : collections.Counter
         ``measurements``, ``estimates``, ``duplicate``, ``out_of_order``,
-        ``restart_gap``, ``restart_backward_jump``, ``no_input``, ``late_input``, ``inputs``.
+        ``restart_gap``, ``restart_backward_jump``, ``no_input``, ``late_input``, ``inputs``,
+        and the dropped samples: ``malformed`` (wrong size or not finite),
+        ``out_of_range``, ``future_stamp``; ``estimate_reset`` counts estimates beyond
+        their limit (not returned; the estimator restarted).
     events : list of (str, str)
         ``(kind, text)`` of notable events since the caller last cleared it.
 
     """
 
-    def __init__(self, estimator: Estimator, max_gap_ns: int, input_stamped: bool = True):
+    def __init__(self, estimator: Estimator, max_gap_ns: int, input_stamped: bool = True,
+                 clock_tolerance_ns: int = 0, limits: Optional[ValueLimits] = None) -> None:
         self.estimator = estimator
         self.max_gap_ns = int(max_gap_ns)
         self.input_stamped = input_stamped
+        self.clock_tolerance_ns = int(clock_tolerance_ns)
+        self.limits = limits or ValueLimits()
         self.counters: Counter = Counter()
         self.events: list = []
         self._input_stamps: list = []
         self._inputs: list = []
         self._pending: list = []
+        self._sequence = 0
         self._zero_input = np.zeros(estimator.n_inputs)
         self._inputs_absent = False
 
@@ -104,13 +143,43 @@ class StreamEstimator:
         self.estimator.reset()
         self._pending.clear()
 
-    def add_input(self, stamp_ns: int, u) -> list:
-        """Store an input; return the estimates of measurements it releases."""
+    def _acceptable(self, what: str, stamp_ns: int, vector: np.ndarray, size: int,
+                    limit: float, now_ns: Optional[int]) -> bool:
+        """Apply the value and clock rules to one sample; False (counted) when dropped."""
+        if vector.shape != (size,) or not np.isfinite(vector).all():
+            self.counters['malformed'] += 1
+            self.events.append(('malformed', f'dropped {what} {vector.tolist()}: expected '
+                                f'{size} finite values'))
+            return False
+        if not within_limit(vector, limit):
+            self.counters['out_of_range'] += 1
+            self.events.append(('out_of_range', f'dropped {what} {vector.tolist()}: a value '
+                                f'exceeds the limit {limit:g} in magnitude'))
+            return False
+        tolerance = self.clock_tolerance_ns
+        if tolerance and now_ns and stamp_ns - now_ns > tolerance:
+            self.counters['future_stamp'] += 1
+            self.events.append(('future_stamp', f'dropped {what} stamped '
+                                f'{(stamp_ns - now_ns) / 1e9:.6g} s ahead of the clock '
+                                f'(tolerance {tolerance / 1e9:g} s)'))
+            return False
+        return True
+
+    def add_input(self, stamp_ns: int, u, now_ns: Optional[int] = None) -> list:
+        """
+        Store an input; return the estimates of measurements it releases.
+
+        ``now_ns`` is the receiver's clock at arrival, for the clock tolerance (None: no
+        check).
+        """
         self.counters['inputs'] += 1
-        self._inputs_absent = False
         stamp_ns = int(stamp_ns)
+        vector = np.array(u, dtype=float).reshape(-1)
+        if not self._acceptable('an input', stamp_ns, vector, self.estimator.n_inputs,
+                                self.limits.input, now_ns):
+            return []
+        self._inputs_absent = False
         index = bisect.bisect_left(self._input_stamps, stamp_ns)
-        vector = np.array(u, dtype=float)
         if index < len(self._input_stamps) and self._input_stamps[index] == stamp_ns:
             self._inputs[index] = vector
         else:
@@ -121,17 +190,44 @@ class StreamEstimator:
             self._prune()  # not while a backward jump (a looping bag) is under way
         return self._release(force=False)
 
-    def add_measurement(self, stamp_ns: int, y) -> list:
-        """Take a measurement; return the estimates produced now (possibly none)."""
+    def add_measurement(self, stamp_ns: int, y, now_ns: Optional[int] = None,
+                        arrival_ns: int = 0) -> list:
+        """
+        Take a measurement; return the estimates produced now (possibly none).
+
+        ``now_ns`` is the receiver's clock at arrival (see :meth:`add_input`);
+        ``arrival_ns`` any monotonic arrival time the caller wants back from :meth:`waiting`
+        (the node's steady clock, to bound the wait for the input).
+        """
         self.counters['measurements'] += 1
-        self._pending.append((int(stamp_ns), np.array(y, dtype=float)))
+        stamp_ns = int(stamp_ns)
+        vector = np.array(y, dtype=float).reshape(-1)
+        if not self._acceptable('a measurement', stamp_ns, vector, self.estimator.n_outputs,
+                                self.limits.measurement, now_ns):
+            return []
+        self._sequence += 1
+        self._pending.append((stamp_ns, vector, self._sequence, int(arrival_ns)))
         return self._release(force=False)
 
-    def flush(self) -> list:
-        """Process every waiting measurement with the inputs at hand."""
+    def waiting(self) -> Optional[tuple]:
+        """
+        ``(sequence, arrival_ns)`` of the first measurement waiting for its input, or None.
+
+        The sequence number tells one waiting measurement from the next; ``arrival_ns`` is
+        what was given to :meth:`add_measurement`.
+        """
+        return self._pending[0][2:] if self._pending else None
+
+    def flush(self, first_only: bool = False) -> list:
+        """
+        Process waiting measurements with the inputs at hand.
+
+        ``first_only``: only the first waits no longer; the ones after it are processed when
+        their input is there (as :meth:`add_input` would).
+        """
         if self._pending and not self._input_stamps:
             self._inputs_absent = True
-        return self._release(force=True)
+        return self._release(force=True, first_only=first_only)
 
     def _ready(self, previous: int) -> bool:
         if not self.input_stamped or self._inputs_absent:
@@ -148,10 +244,10 @@ class StreamEstimator:
             return self._zero_input
         return self._inputs[index]
 
-    def _release(self, force: bool) -> list:
+    def _release(self, force: bool, first_only: bool = False) -> list:
         produced = []
         while self._pending:
-            stamp, y = self._pending[0]
+            stamp, y = self._pending[0][:2]
             previous = self.estimator.stamp_ns
             if previous is not None and 0 < stamp - previous <= self.max_gap_ns:
                 if not (force or self._ready(previous)):
@@ -161,6 +257,7 @@ class StreamEstimator:
                 u = self._input_for(previous)
             else:
                 u = self._zero_input
+            force = force and not first_only
             self._pending.pop(0)
             sample = self._process(stamp, y, u, previous)
             if sample is not None:
@@ -172,9 +269,24 @@ class StreamEstimator:
         if not self._admit(stamp, previous):
             return None
         estimate = self.estimator.update(stamp, y, u)
+        innovation = self.estimator.innovation
+        if not self._publishable(estimate, innovation):
+            return None
         self.counters['estimates'] += 1
-        return EstimateSample(stamp, estimate, self.estimator.innovation,
-                              self.estimator.covariance)
+        return EstimateSample(stamp, estimate, innovation, self.estimator.covariance)
+
+    def _publishable(self, estimate: np.ndarray, innovation: np.ndarray) -> bool:
+        """Whether an estimate may be returned; else count it and restart the estimator."""
+        limits = self.limits
+        if within_limit(estimate, limits.estimate) and within_limit(innovation,
+                                                                    limits.innovation):
+            return True
+        self.counters['estimate_reset'] += 1
+        self.events.append(('estimate_reset', f'an estimate beyond its limit '
+                            f'({limits.estimate:g}, innovation {limits.innovation:g}) was not '
+                            f'published; the estimator restarts from its initial state'))
+        self.estimator.reset()
+        return False
 
     def _admit(self, stamp: int, previous: Optional[int]) -> bool:
         """Apply the stamp rules to a measurement; False when it is dropped."""
@@ -211,7 +323,10 @@ class StreamEstimator:
         Gives what the node computes from the same messages when no input arrives later than
         the measurement after it (a recording played back): the same pairing and stamp
         rules, and :meth:`Estimator.advance` for the arithmetic, so the estimates are equal
-        bit for bit. Rows with a non-finite value are dropped and counted as ``malformed``.
+        bit for bit. Rows with a non-finite value are dropped and counted as ``malformed``,
+        rows beyond the :class:`ValueLimits` as ``out_of_range``, and, with arrival times
+        and a clock tolerance, rows stamped too far ahead of their arrival as
+        ``future_stamp`` (the arrival time plays the receiver's clock).
 
         Parameters
         ----------
@@ -239,8 +354,9 @@ class StreamEstimator:
         input_stamps = np.asarray(input_stamps, dtype=np.int64)
         if len(stamps) != len(outputs) or len(input_stamps) != len(inputs):
             raise ValueError('replay: stamps and values differ in length')
-        good_inputs = np.isfinite(inputs).all(axis=1)
-        good = np.isfinite(outputs).all(axis=1)
+        good_inputs, input_drops = self._row_filter(inputs, input_stamps, input_arrivals,
+                                                    self.limits.input)
+        good, drops = self._row_filter(outputs, stamps, arrivals, self.limits.measurement)
         jump = -self.max_gap_ns
         looping = ((np.diff(stamps[good]) < jump).any()
                    or (np.diff(input_stamps[good_inputs]) < jump).any())
@@ -250,7 +366,8 @@ class StreamEstimator:
                                  'give the arrival times to replay it message by message')
             return self._replay_in_arrival_order(
                 input_stamps, inputs, stamps, outputs, input_arrivals, arrivals)
-        self.counters['malformed'] += int((~good_inputs).sum() + (~good).sum())
+        for key in drops:  # every kind named, zero included: replay reports them all
+            self.counters[key] += input_drops[key] + drops[key]
         order = np.argsort(input_stamps[good_inputs], kind='stable')
         input_stamps = input_stamps[good_inputs][order].tolist()
         inputs = inputs[good_inputs][order]
@@ -261,8 +378,10 @@ class StreamEstimator:
         steps = np.diff(measured)
         if (estimator.stamp_ns is None and len(measured) and (steps > 0).all()
                 and (steps <= self.max_gap_ns).all()):
-            return self._replay_steady(measured, outputs[good], np.array(input_stamps),
-                                       inputs)
+            steady = self._replay_steady(measured, outputs[good], np.array(input_stamps),
+                                         inputs)
+            if steady is not None:
+                return steady
         kept, estimates, innovations = [], [], []
         find = bisect.bisect_right
         for index in np.flatnonzero(good).tolist():
@@ -282,28 +401,57 @@ class StreamEstimator:
                 continue
             else:
                 u = zero
-            estimates.append(estimator.advance(stamp, outputs[index], u))
-            innovations.append(estimator.innovation)
+            estimate = estimator.advance(stamp, outputs[index], u)
+            innovation = estimator.innovation
+            if not self._publishable(estimate, innovation):
+                continue
+            estimates.append(estimate)
+            innovations.append(innovation)
             kept.append(stamp)
         self.counters['estimates'] += len(kept)
         return ReplayArrays(np.array(kept, dtype=np.int64),
                             np.array(estimates).reshape(-1, estimator.n_states),
                             np.array(innovations).reshape(-1, n_outputs))
 
-    def _replay_steady(self, stamps, outputs, input_stamps, inputs) -> 'ReplayArrays':
+    def _row_filter(self, values, stamps, arrivals, limit) -> tuple:
+        """Rows the value and clock rules keep, and a Counter of the dropped ones."""
+        finite = np.isfinite(values).all(axis=1)
+        inside = finite & (np.abs(np.where(finite[:, None], values, 0.0)).max(
+            axis=1, initial=0.0) <= limit)
+        keep = inside.copy()
+        if arrivals is not None and self.clock_tolerance_ns:
+            now = np.asarray(arrivals, dtype=np.int64)
+            future = inside & (now > 0) & (stamps - now > self.clock_tolerance_ns)
+            keep &= ~future
+        else:
+            future = np.zeros(len(values), dtype=bool)
+        drops = Counter({'malformed': int((~finite).sum()),
+                         'out_of_range': int((finite & ~inside).sum()),
+                         'future_stamp': int(future.sum())})
+        return keep, drops
+
+    def _replay_steady(self, stamps, outputs, input_stamps, inputs) -> Optional[ReplayArrays]:
         # Every measurement is admitted, so each interval's input is known in advance: the
         # latest input stamped at or before the previous measurement (zero before the first).
+        # None (estimator untouched) when an estimate leaves its limit: the caller then takes
+        # the sample-by-sample path, which restarts the estimator there as live.
         estimator = self.estimator
         count = len(stamps)
         pairing = np.searchsorted(input_stamps, stamps[:-1], side='right') - 1
         held = np.vstack([self._zero_input, inputs])[np.concatenate([[-1], pairing]) + 1]
+        saved = estimator.snapshot()
+        estimates, innovations = estimator.advance_many(stamps, outputs, held)
+        limits = self.limits
+        if not (_rows_within(estimates, limits.estimate)
+                and _rows_within(innovations, limits.innovation)):
+            estimator.restore(saved)
+            return None
         if len(input_stamps):
             self.counters['late_input'] += int((pairing < 0).sum()) if len(pairing) else 0
             if self.input_stamped:
                 self.counters['late_input'] += int((stamps[:-1] > input_stamps[-1]).sum())
         else:
             self.counters['no_input'] += count - 1
-        estimates, innovations = estimator.advance_many(stamps, outputs, held)
         self.counters['measurements'] += count
         self.counters['estimates'] += count
         return ReplayArrays(stamps.copy(), np.ascontiguousarray(estimates),
@@ -315,15 +463,12 @@ class StreamEstimator:
             [(int(t), 0, k) for k, t in enumerate(np.asarray(input_arrivals).tolist())]
             + [(int(t), 1, k) for k, t in enumerate(np.asarray(arrivals).tolist())])
         samples = []
-        for _, kind, index in events:
-            values = inputs[index] if kind == 0 else outputs[index]
-            if not np.isfinite(values).all():
-                self.counters['malformed'] += 1
-                continue
+        for arrival, kind, index in events:
             add = self.add_input if kind == 0 else self.add_measurement
+            values = inputs[index] if kind == 0 else outputs[index]
+            stamp = int((input_stamps if kind == 0 else stamps)[index])
             samples += [(sample.stamp_ns, sample.estimate, sample.innovation)
-                        for sample in add(int((input_stamps if kind == 0 else stamps)[index]),
-                                          values)]
+                        for sample in add(stamp, values, arrival)]
         samples += [(sample.stamp_ns, sample.estimate, sample.innovation)
                     for sample in self.flush()]
         n_states, n_outputs = self.estimator.n_states, self.estimator.n_outputs
@@ -341,3 +486,8 @@ class StreamEstimator:
         if keep_from:
             del self._input_stamps[:keep_from]
             del self._inputs[:keep_from]
+
+
+def _rows_within(rows: np.ndarray, limit: float) -> bool:
+    """Whether every entry of ``rows`` is finite and of magnitude at most ``limit``."""
+    return bool(rows.size == 0 or (np.isfinite(rows).all() and np.abs(rows).max() <= limit))

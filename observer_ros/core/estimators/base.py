@@ -37,6 +37,9 @@ from observer_ros.core.poles import to_discrete
 #: Number of distinct sample intervals whose step matrices are kept.
 DEFAULT_CACHE_SIZE = 256
 
+#: Distinct recent intervals remembered for :meth:`Estimator.recent_intervals`.
+RECENT_INTERVALS = 4
+
 NANOSECONDS = 1_000_000_000
 
 
@@ -138,7 +141,10 @@ class Estimator:
     design : StepDesign
         Produces the step matrices of each interval.
     initial_state : array_like, shape (n,), optional
-        Estimate before the first sample (zero by default).
+        Pins the estimate at the first sample (reduced-order and Chen observers move it to
+        the nearest point that agrees with ``y``). None (the default): the first
+        measurement initialises the estimate, ``x_hat = C^+ y`` (the least-norm state that
+        reproduces it).
     cache_size : int
         Distinct intervals kept (least recently used dropped).
     interval_resolution_ns : int
@@ -149,7 +155,10 @@ class Estimator:
     Notes
     -----
     :meth:`update` takes the measurement ``y`` at ``stamp_ns`` and the input ``u`` held over
-    the interval since the previous sample. The first update only initializes the estimate.
+    the interval since the previous sample. The first update (and the first after a
+    :meth:`restart`) initialises the estimate from ``y`` as described for
+    ``initial_state``; its innovation is ``y - C x_prior`` with the prior the pinned initial
+    state, zero, or (after a restart) the estimate held.
 
     """
 
@@ -159,17 +168,18 @@ class Estimator:
         model = design.model
         self.n_states, self.n_inputs = model.n_states, model.n_inputs
         self.n_outputs = model.n_outputs
-        self.initial_state = self._vector('observer.initial_state', initial_state,
-                                          self.n_states, default_zero=True)
+        self._pinned: Optional[np.ndarray] = None
+        self.initial_state = initial_state
         self._cache: OrderedDict = OrderedDict()
+        self._recent: OrderedDict = OrderedDict()
         self._cache_size = cache_size
         self._last_dt_ns: Optional[int] = None
         self._last_step_matrices: Optional[StepMatrices] = None
         self._resolution_ns = 0
         self.interval_resolution_ns = interval_resolution_ns
         self._stamp: Optional[int] = None
-        self._x = self.initial_state.copy()
-        self._start = self.initial_state
+        self._start, self._start_pinned = self._initial_prior()
+        self._x = self._start.copy()
         self._innovation = np.zeros(self.n_outputs)
         self._step: Optional[StepMatrices] = None
         self._buffer = np.zeros(self.n_states + self.n_inputs + self.n_outputs)
@@ -186,6 +196,21 @@ class Estimator:
         if not math.isfinite(vector @ vector) and not np.isfinite(vector).all():
             raise ValueError(f'{name}: expected finite values, got {vector.tolist()}')
         return vector
+
+    @property
+    def initial_state(self) -> Optional[np.ndarray]:
+        """The pinned initial estimate, or None when the first measurement initialises it."""
+        return None if self._pinned is None else self._pinned.copy()
+
+    @initial_state.setter
+    def initial_state(self, values) -> None:
+        self._pinned = (None if values is None else
+                        self._vector('initial_state', values, self.n_states))
+
+    def _initial_prior(self) -> tuple:
+        if self._pinned is None:
+            return np.zeros(self.n_states), False
+        return self._pinned.copy(), True
 
     @property
     def estimate(self) -> np.ndarray:
@@ -225,7 +250,17 @@ class Estimator:
         if value != self._resolution_ns:
             self._resolution_ns = value
             self._cache.clear()
+            self._recent.clear()
             self._last_dt_ns = self._last_step_matrices = None
+
+    def recent_intervals(self) -> list:
+        """
+        Return the last few distinct intervals (ns, rounded as designed) stepped over.
+
+        Kept across :meth:`replace_design`, so a caller can check that a new design can
+        be sampled at the intervals in use before switching to it.
+        """
+        return list(self._recent)[::-1]
 
     def step_matrices(self, dt_ns: int) -> StepMatrices:
         """Return the (cached) step matrices for an interval in nanoseconds."""
@@ -243,6 +278,11 @@ class Estimator:
                 self._cache.popitem(last=False)
         else:
             self._cache.move_to_end(key)
+        recent = self._recent
+        recent[key] = None
+        recent.move_to_end(key)
+        if len(recent) > RECENT_INTERVALS:
+            recent.popitem(last=False)
         self._last_dt_ns, self._last_step_matrices = dt_ns, step
         return step
 
@@ -281,8 +321,12 @@ class Estimator:
         checking whole arrays at once.
         """
         if self._stamp is None:
-            self._x = self.design.initial_estimate(self._start, y)
-            self._innovation = np.zeros(self.n_outputs)
+            prior = self._start
+            if self._start_pinned:
+                self._x = self.design.initial_estimate(prior, y)
+            else:
+                self._x = least_norm_consistent(self.design.model.c, prior, y)
+            self._innovation = y - self.design.model.c @ prior
             self._stamp = stamp_ns
             return self._x
         dt_ns = stamp_ns - self._stamp
@@ -341,21 +385,40 @@ class Estimator:
         return results[:, :n], results[:, n:]
 
     def reset(self, initial_state=None) -> None:
-        """Forget the stamps and start again from ``initial_state`` (or the configured one)."""
+        """
+        Forget the stamps and start again as configured.
+
+        ``initial_state`` (n values) pins a new initial estimate first; without it the
+        configured one (or, unpinned, the next measurement) starts the estimate.
+        """
         if initial_state is not None:
-            self.initial_state = self._vector('observer.initial_state', initial_state,
-                                              self.n_states)
-        self._x = self.initial_state.copy()
-        self._start = self.initial_state
+            self.initial_state = initial_state
+        self._start, self._start_pinned = self._initial_prior()
+        self._x = self._start.copy()
         self._innovation = np.zeros(self.n_outputs)
         self._stamp = None
         self._step = None
 
     def restart(self) -> None:
-        """Forget the stamps but continue from the current estimate at the next sample."""
-        self._start = self._x.copy()
+        """
+        Forget the stamps; the next sample starts from the current estimate.
+
+        The next measurement moves the estimate held to the nearest state that agrees with
+        it (the interval is unknown, so nothing is propagated).
+        """
+        self._start, self._start_pinned = self._x.copy(), False
         self._stamp = None
         self._step = None
+
+    def snapshot(self) -> tuple:
+        """Return the estimator's running state, for :meth:`restore`."""
+        return (self._x.copy(), self._innovation.copy(), self._stamp, self._step,
+                self._start.copy(), self._start_pinned)
+
+    def restore(self, state: tuple) -> None:
+        """Return to a state taken by :meth:`snapshot` (the design and cache are kept)."""
+        x, innovation, self._stamp, self._step, start, self._start_pinned = state
+        self._x, self._innovation, self._start = x.copy(), innovation.copy(), start.copy()
 
     def replace_design(self, design: StepDesign) -> None:
         """Switch to new gains keeping the estimate and stamps (no jump in ``x_hat``)."""
