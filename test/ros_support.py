@@ -29,7 +29,6 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
 from conftest import CONFIG_DIR
-from observer_ros.core.streaming import StreamEstimator
 from observer_ros.nodes.closed_loop import ClosedLoop
 from observer_ros.ros.parameters import make_executor
 
@@ -100,8 +99,7 @@ class NodeProcess:
 
 def offline_estimates(system, recorder):
     """Run the configured estimator over the recorded y and u, as the observer node does."""
-    stream = StreamEstimator(system.make_estimator(),
-                             int(system.parameters['observer.max_gap'] * 1e9))
+    stream = system.make_stream()
     events = [(stamp, 1, vector) for stamp, vector in zip(*recorder.arrays('u'))]
     events += [(stamp, 2, vector) for stamp, vector in zip(*recorder.arrays('y'))]
     samples = []
@@ -136,7 +134,7 @@ def run_lockstep(config, samples, extra=(), reference=None, bag=None, storage='m
             if bag is not None:
                 loop.record(str(bag), storage)
             result = {topic: recorder.arrays(topic) for topic in ('y', 'u', 'x_true', 'x_hat')}
-            return loop.observer.system, recorder, result, dict(loop.plant.counters)
+            return loop.system, recorder, result, dict(loop.plant.counters)
         finally:
             if helper is not None:
                 loop.executor.remove_node(helper)

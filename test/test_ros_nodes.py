@@ -190,7 +190,7 @@ REJECTED = {
     'unstable gain': ({'observer__poles': [], 'observer__gain': UNSTABLE_GAIN},
                       'observer.gain'),
     'gain and poles': ({'observer__gain': [22.0, 59.0]}, 'not both'),
-    'wrong type': ({'observer__poles': 3.5}, 'observer.poles: expected a list'),
+    'wrong type': ({'observer__poles': 3.5}, 'observer.poles: expected string_array'),
     'read-only model': ({'model__A': [0.0, 1.0, 0.0, 0.0]}, 'read-only'),
     'negative interval resolution': ({'observer__interval_resolution': -0.001},
                                      'observer.interval_resolution: expected seconds'),

@@ -47,135 +47,213 @@ from observer_ros.core.model import (
 from observer_ros.core.placement import METHODS
 from observer_ros.core.poles import parse_poles, poles_meeting_error_spec, slowest_allowed_pole
 from observer_ros.core.simulation import input_limits_from_flat
+from observer_ros.core.streaming import StreamEstimator, ValueLimits
 
 OBSERVER_TYPES = ('full_order', 'reduced_order', 'chen', 'kalman')
+
+NANOSECONDS = 1_000_000_000
 
 DOUBLE, DOUBLE_ARRAY, STRING, STRING_ARRAY, INTEGER, BOOL = (
     'double', 'double_array', 'string', 'string_array', 'integer', 'bool')
 
 
+#: The nodes of the package, by the name each declares its parameters under.
+PLANT, OBSERVER, FEEDBACK = 'plant_simulator', 'observer', 'state_feedback'
+ALL_NODES = (PLANT, OBSERVER, FEEDBACK)
+
+#: Largest magnitude of a model, gain or covariance entry: beyond it the exact
+#: discretization and the designs overflow double precision.
+ENTRY_LIMIT = 1e12
+
+#: Default of ``topics.<topic>.limit``: the largest magnitude a vector value may have.
+VALUE_LIMIT = 1e9
+
+#: Largest seed ``numpy.random.default_rng`` takes from a ROS integer parameter.
+SEED_MAX = 2 ** 63 - 1
+
+
 @dataclass(frozen=True)
 class ParameterSpec:
-    """One parameter: name, type, default, description and whether it may change at run time."""
+    """
+    One parameter: name, type, default, description, range and the nodes that declare it.
+
+    Attributes
+    ----------
+    dynamic : bool
+        Whether it may change at run time.
+    nodes : tuple of str
+        The nodes that declare it (:data:`PLANT`, :data:`OBSERVER`, :data:`FEEDBACK`).
+    low, high : float or None
+        Inclusive bounds of a number (of every entry's magnitude for ``entry_limit``).
+    low_open : bool
+        The lower bound is exclusive (``> low``).
+    unit : str
+        What the number is, for error messages (``'seconds'``).
+    entry_limit : float or None
+        Double arrays: the largest magnitude of an entry.
+
+    """
 
     name: str
     kind: str
     default: Any
     description: str
     dynamic: bool = False
+    nodes: tuple = ALL_NODES
+    low: Optional[float] = None
+    high: Optional[float] = None
+    low_open: bool = False
+    unit: str = 'a value'
+    entry_limit: Optional[float] = None
+
+    def range_text(self) -> str:
+        """Return the accepted range in words (empty when any value of the type is accepted)."""
+        if self.low is None and self.high is None:
+            return ''
+        low = '-inf' if self.low is None else f'{self.low:g}'
+        high = 'inf' if self.high is None else f'{self.high:g}'
+        return f'{"(" if self.low_open else "["}{low}, {high}]'
 
 
 def _matrix(text: str) -> str:
     return f'{text}, flat row-major (row after row).'
 
 
+_OBS, _FB, _PL = (OBSERVER,), (FEEDBACK,), (PLANT,)
+
+
+def _seconds(name: str, default: float, description: str, low: float, high: float,
+             nodes: tuple, dynamic: bool = False, low_open: bool = False) -> ParameterSpec:
+    return ParameterSpec(name, DOUBLE, default, description, dynamic, nodes, low, high,
+                         low_open, 'seconds')
+
+
+def _array(name: str, description: str, nodes: tuple, dynamic: bool = False,
+           limit: float = ENTRY_LIMIT) -> ParameterSpec:
+    return ParameterSpec(name, DOUBLE_ARRAY, [], description, dynamic, nodes,
+                         entry_limit=limit)
+
+
 PARAMETERS = (
-    ParameterSpec('model.A', DOUBLE_ARRAY, [], _matrix('State matrix A, n x n (n*n values)')),
-    ParameterSpec('model.B', DOUBLE_ARRAY, [], _matrix('Input matrix B, n x m')),
-    ParameterSpec('model.C', DOUBLE_ARRAY, [], _matrix('Output matrix C, p x n')),
-    ParameterSpec('model.D', DOUBLE_ARRAY, [],
-                  _matrix('Feedthrough D, p x m; empty means zero')),
-    ParameterSpec('model.dt', DOUBLE, 0.0,
-                  'Model period in seconds: 0 for continuous time, > 0 for discrete time.'),
+    _array('model.A', _matrix('State matrix A, n x n (n*n values)'), ALL_NODES),
+    _array('model.B', _matrix('Input matrix B, n x m'), ALL_NODES),
+    _array('model.C', _matrix('Output matrix C, p x n'), ALL_NODES),
+    _array('model.D', _matrix('Feedthrough D, p x m; empty means zero'), ALL_NODES),
+    _seconds('model.dt', 0.0, 'Model period in seconds: 0 for continuous time, > 0 for '
+             'discrete time.', 0.0, 3600.0, ALL_NODES),
     ParameterSpec('model.state_names', STRING_ARRAY, [], 'n state names (default x1..xn).'),
     ParameterSpec('model.input_names', STRING_ARRAY, [], 'm input names (default u1..um).'),
     ParameterSpec('model.output_names', STRING_ARRAY, [], 'p output names (default y1..yp).'),
     ParameterSpec('observer.type', STRING, 'full_order',
-                  'full_order | reduced_order | chen | kalman.'),
+                  'full_order | reduced_order | chen | kalman.', nodes=_OBS),
     ParameterSpec('observer.poles', STRING_ARRAY, [],
                   'Observer error poles as strings ("-10", "-2+2j", "zeta=0.8, wn=10"); '
                   's-plane for a continuous model, z-plane for a discrete one. n poles '
-                  '(full order) or n - p (reduced order, Chen).', dynamic=True),
-    ParameterSpec('observer.gain', DOUBLE_ARRAY, [],
-                  _matrix('Given observer gain L instead of poles: n x p (full order) or '
-                          '(n-p) x p (reduced order, Chen)'), dynamic=True),
-    ParameterSpec('observer.process_noise', DOUBLE_ARRAY, [],
-                  'Kalman Q: n diagonal values or n x n row-major. Continuous model: '
-                  'intensity (discretized per interval); discrete model: covariance.',
-                  dynamic=True),
-    ParameterSpec('observer.measurement_noise', DOUBLE_ARRAY, [],
-                  'Kalman R: p diagonal values or p x p row-major; covariance of each '
-                  'sampled measurement (continuous model: intensity for the CARE design).',
-                  dynamic=True),
+                  '(full order) or n - p (reduced order, Chen).', dynamic=True, nodes=_OBS),
+    _array('observer.gain', _matrix('Given observer gain L instead of poles: n x p (full '
+                                    'order) or (n-p) x p (reduced order, Chen)'),
+           _OBS, dynamic=True),
+    _array('observer.process_noise', 'Kalman Q: n diagonal values or n x n row-major. '
+           'Continuous model: intensity (discretized per interval); discrete model: '
+           'covariance.', _OBS, dynamic=True),
+    _array('observer.measurement_noise', 'Kalman R: p diagonal values or p x p row-major; '
+           'covariance of each sampled measurement (continuous model: intensity for the CARE '
+           'design).', _OBS, dynamic=True),
     ParameterSpec('observer.method', STRING, 'auto',
-                  'Pole placement method: ' + ' | '.join(METHODS) + '.', dynamic=True),
+                  'Pole placement method: ' + ' | '.join(METHODS) + '.', dynamic=True,
+                  nodes=_OBS),
     ParameterSpec('observer.coordinates', STRING, 'orthonormal',
                   'Reduced order: orthonormal (C completed by an orthonormal null-space '
-                  'basis) | observability (the observability matrix, one output).'),
+                  'basis) | observability (the observability matrix, one output).',
+                  nodes=_OBS),
     ParameterSpec('observer.chen_seed', INTEGER, 0,
-                  'Chen: seed of the random L when observer.gain is empty.', dynamic=True),
+                  'Chen: seed of the random L when observer.gain is empty (0 ... 2^63 - 1).',
+                  dynamic=True, nodes=_OBS, low=0, high=SEED_MAX, unit='a seed'),
     ParameterSpec('observer.error_tolerance', DOUBLE, 0.0,
                   'With observer.error_time: require ||e(T)|| <= tolerance for ||e(0)|| = 1 '
                   '(slowest pole ln(tolerance)/T); 0 disables. Without poles, poles are '
-                  'generated at that bound.', dynamic=True),
-    ParameterSpec('observer.error_time', DOUBLE, 0.0,
-                  'Time T in seconds of the error specification.', dynamic=True),
-    ParameterSpec('observer.initial_state', DOUBLE_ARRAY, [],
-                  'Initial estimate, n values (default zeros).', dynamic=True),
-    ParameterSpec('feedback.gain', DOUBLE_ARRAY, [],
-                  _matrix('Given state-feedback gain K, m x n (u = -K x_hat + N r)'),
-                  dynamic=True),
+                  'generated at that bound.', dynamic=True, nodes=_OBS, low=0.0, high=1.0),
+    _seconds('observer.error_time', 0.0, 'Time T in seconds of the error specification.',
+             0.0, 1e6, _OBS, dynamic=True),
+    _array('observer.initial_state', 'Initial estimate, n values. Empty (the default): the '
+           'first measurement initialises the estimate (least-norm x with C x = y).', _OBS,
+           dynamic=True, limit=VALUE_LIMIT),
+    _array('feedback.gain', _matrix('Given state-feedback gain K, m x n (u = -K x_hat + N r)'),
+           _FB, dynamic=True),
     ParameterSpec('feedback.poles', STRING_ARRAY, [],
-                  'Poles of A - B K as strings, n of them.', dynamic=True),
+                  'Poles of A - B K as strings, n of them.', dynamic=True, nodes=_FB),
     ParameterSpec('feedback.method', STRING, 'auto', 'Pole placement method for K.',
-                  dynamic=True),
-    ParameterSpec('feedback.reference_gain', DOUBLE_ARRAY, [],
-                  _matrix('Reference gain N, m x p; empty: unit DC gain when the plant is '
-                          'square'), dynamic=True),
-    ParameterSpec('feedback.input_limits', DOUBLE_ARRAY, [],
-                  'Command saturation: [min, max] or [min_1, max_1, ..., min_m, max_m].',
-                  dynamic=True),
-    ParameterSpec('feedback.timeout', DOUBLE, 0.5,
-                  'Seconds without x_hat after which the safe command is published.',
-                  dynamic=True),
-    ParameterSpec('feedback.safe_command', DOUBLE_ARRAY, [],
-                  'Command published when x_hat is stale, m values (default zeros).',
-                  dynamic=True),
-    ParameterSpec('plant.rate_hz', DOUBLE, 100.0, 'Plant sample rate in Hz.'),
-    ParameterSpec('plant.initial_state', DOUBLE_ARRAY, [], 'True initial state, n values.'),
-    ParameterSpec('plant.process_noise', DOUBLE_ARRAY, [],
-                  'Plant process noise: intensity (continuous) or covariance (discrete), '
-                  'n or n*n values; empty for none.'),
-    ParameterSpec('plant.measurement_noise', DOUBLE_ARRAY, [],
-                  'Measurement noise covariance, p or p*p values; empty for none.'),
-    ParameterSpec('plant.seed', INTEGER, 0, 'Seed of the plant noise.'),
-    ParameterSpec('plant.input_limits', DOUBLE_ARRAY, [],
-                  'Input saturation: [min, max] or [min_1, max_1, ..., min_m, max_m].'),
+                  dynamic=True, nodes=_FB),
+    _array('feedback.reference_gain', _matrix('Reference gain N, m x p; empty: unit DC gain '
+                                              'when the plant is square'), _FB, dynamic=True),
+    _array('feedback.input_limits', 'Command saturation: [min, max] or [min_1, max_1, ..., '
+           'min_m, max_m].', _FB, dynamic=True, limit=VALUE_LIMIT),
+    _seconds('feedback.timeout', 0.5, 'Seconds without x_hat after which the safe command is '
+             'published (0.001 ... 3600).', 0.001, 3600.0, _FB, dynamic=True),
+    _array('feedback.safe_command', 'Command published when x_hat is stale, m values '
+           '(default zeros; inside feedback.input_limits).', _FB, dynamic=True,
+           limit=VALUE_LIMIT),
+    ParameterSpec('plant.rate_hz', DOUBLE, 100.0,
+                  'Plant sample rate in Hz (0.01 ... 10000; a discrete model: 1 / model.dt).',
+                  nodes=_PL, low=0.01, high=10000.0, unit='a rate in Hz'),
+    _array('plant.initial_state', 'True initial state, n values.', _PL, limit=VALUE_LIMIT),
+    _array('plant.process_noise', 'Plant process noise: intensity (continuous) or covariance '
+           '(discrete), n or n*n values; empty for none.', _PL),
+    _array('plant.measurement_noise', 'Measurement noise covariance, p or p*p values; empty '
+           'for none.', _PL),
+    ParameterSpec('plant.seed', INTEGER, 0, 'Seed of the plant noise (0 ... 2^63 - 1).',
+                  nodes=_PL, low=0, high=SEED_MAX, unit='a seed'),
+    _array('plant.input_limits', 'Input saturation: [min, max] or [min_1, max_1, ..., min_m, '
+           'max_m].', _PL, limit=VALUE_LIMIT),
     ParameterSpec('plant.lockstep', BOOL, False,
                   'Lockstep: publish /clock and advance only when the command computed '
                   'from the current sample has arrived (deterministic, faster than real '
-                  'time).'),
-    ParameterSpec('plant.lockstep_timeout', DOUBLE, 1.0,
-                  'Lockstep: wall-clock seconds to wait for the command before advancing '
-                  'with the last one (with a warning).'),
+                  'time).', nodes=_PL),
+    _seconds('plant.lockstep_timeout', 1.0, 'Lockstep: wall-clock seconds to wait for the '
+             'command before advancing with the last one (with a warning).', 0.001, 3600.0,
+             _PL),
     ParameterSpec('plant.lockstep_subscribers', INTEGER, 1,
                   'Lockstep: subscribers on y (the observer plus any recorder) to wait for '
-                  'before the first sample.'),
+                  'before the first sample (1 ... 100).', nodes=_PL, low=1, high=100,
+                  unit='a count'),
     ParameterSpec('plant.samples', INTEGER, 0,
-                  'Number of samples to simulate, then stop; 0 runs until shut down.'),
-    ParameterSpec('observer.input_wait', DOUBLE, 0.05,
-                  'Wall-clock seconds a measurement may wait for the stamped input of its '
-                  'interval before the latest earlier input is used.'),
-    ParameterSpec('observer.interval_resolution', DOUBLE, 0.0,
-                  'Seconds: sample intervals are rounded to a multiple of this before the '
-                  'observer is discretized and designed for them (0: every interval exact). '
-                  'With jittered stamps and a continuous model, e.g. 1e-5 bounds the designs '
-                  'to one per 10 us of interval instead of one per new interval.',
-                  dynamic=True),
-    ParameterSpec('observer.max_gap', DOUBLE, 1.0,
-                  'Seconds between measurements beyond which (or a backward jump beyond '
-                  'which) the estimator restarts from the new sample.'),
+                  'Number of samples to simulate, then stop; 0 runs until shut down.',
+                  nodes=_PL, low=0, high=10 ** 12, unit='a count'),
+    _seconds('observer.input_wait', 0.05, 'Wall-clock seconds a measurement may wait for the '
+             'stamped input of its interval before the latest earlier input is used '
+             '(0 ... 10).', 0.0, 10.0, _OBS),
+    _seconds('observer.interval_resolution', 0.0,
+             'Seconds: sample intervals are rounded to a multiple of this before the '
+             'observer is discretized and designed for them (0: every interval exact). '
+             'With jittered stamps and a continuous model, e.g. 1e-5 bounds the designs '
+             'to one per 10 us of interval instead of one per new interval.', 0.0, 1e6,
+             _OBS, dynamic=True),
+    _seconds('observer.max_gap', 1.0, 'Seconds between measurements beyond which (or a '
+             'backward jump beyond which) the estimator restarts from the new sample '
+             '(0.001 ... 1e6).', 0.001, 1e6, _OBS),
+    _seconds('observer.clock_tolerance', 0.5, 'Seconds a measurement or input may be stamped '
+             'ahead of the node clock; a later stamp is dropped and counted (future_stamp), '
+             'so it cannot capture the timeline. 0 turns the check off (0 ... 1e6).', 0.0,
+             1e6, _OBS, dynamic=True),
 ) + tuple(
-    spec for topic, names in (('y', 'output'), ('u', 'input'), ('u_cmd', 'input'),
-                              ('x_hat', 'state'), ('x_true', 'state'),
-                              ('reference', 'output'), ('innovation', 'output'))
+    spec for topic, names, nodes in (
+        ('y', 'output', (PLANT, OBSERVER)), ('u', 'input', (PLANT, OBSERVER)),
+        ('u_cmd', 'input', (PLANT, FEEDBACK)), ('x_hat', 'state', (OBSERVER, FEEDBACK)),
+        ('x_true', 'state', (PLANT,)), ('reference', 'output', (FEEDBACK,)),
+        ('innovation', 'output', (OBSERVER,)))
     for spec in (
         ParameterSpec(f'topics.{topic}.type', STRING, 'joint_state',
                       f'Message type of {topic}: joint_state (sensor_msgs/JointState, the '
                       f'model {names} names as joint names) | float64_multi_array '
-                      f'(std_msgs/Float64MultiArray, unstamped).'),
+                      f'(std_msgs/Float64MultiArray, unstamped).', nodes=nodes),
         ParameterSpec(f'topics.{topic}.field', STRING, 'position',
-                      f'JointState field holding {topic}: position | velocity | effort.'),
+                      f'JointState field holding {topic}: position | velocity | effort.',
+                      nodes=nodes),
+        ParameterSpec(f'topics.{topic}.limit', DOUBLE, VALUE_LIMIT,
+                      f'Largest magnitude of a value on {topic}: a received message with a '
+                      f'larger value is dropped and counted (out_of_range), and no larger '
+                      f'value is published (1e-300 ... 1e300).', nodes=nodes, low=1e-300,
+                      high=1e300),
     )
 )
 
@@ -188,12 +266,24 @@ PARAMETER_SPECS = {spec.name: spec for spec in PARAMETERS}
 
 def parameter_table() -> str:
     """Return the parameter schema as the Markdown table README shows."""
-    rows = ['| parameter | type | default | run-time | meaning |', '|---|---|---|---|---|']
+    rows = ['| parameter | type | default | range | run-time | nodes | meaning |',
+            '|---|---|---|---|---|---|---|']
+    short = {PLANT: 'plant', OBSERVER: 'observer', FEEDBACK: 'feedback'}
     for spec in PARAMETERS:
         default = json.dumps(spec.default) if not isinstance(spec.default, str) else spec.default
-        rows.append(f'| `{spec.name}` | {spec.kind} | `{default}` | '
-                    f'{"yes" if spec.dynamic else "no"} | {spec.description} |')
+        limits = spec.range_text() or (f'abs <= {spec.entry_limit:g}' if spec.entry_limit
+                                       else '')
+        nodes = 'all' if spec.nodes == ALL_NODES else ', '.join(short[n] for n in spec.nodes)
+        rows.append(f'| `{spec.name}` | {spec.kind} | `{default}` | {limits} | '
+                    f'{"yes" if spec.dynamic else "no"} | {nodes} | {spec.description} |')
     return '\n'.join(rows) + '\n'
+
+
+def node_parameters(node: str) -> tuple:
+    """Return the specs a node declares (``node``: :data:`PLANT`, :data:`OBSERVER` ...)."""
+    if node not in ALL_NODES:
+        raise ValueError(f'node: expected one of {", ".join(ALL_NODES)}, got {node!r}')
+    return tuple(spec for spec in PARAMETERS if node in spec.nodes)
 
 
 #: Parameters every ROS node has, allowed in shared parameter files.
@@ -241,7 +331,9 @@ class System:
     observer : ObserverDesign or None
         None when the parameters define no observer (no poles, gain or noise).
     observer_type : str
-    initial_estimate : numpy.ndarray
+    initial_estimate : numpy.ndarray or None
+        ``observer.initial_state`` when given (it pins the first estimate); None when the
+        first measurement initialises the estimate.
     feedback : FeedbackSettings or None
     plant : PlantSettings
     controller_tf : ControllerTransferFunction or None
@@ -256,7 +348,7 @@ class System:
     model: StateSpaceModel
     observer: Optional[ObserverDesign]
     observer_type: str
-    initial_estimate: np.ndarray
+    initial_estimate: Optional[np.ndarray]
     feedback: Optional[FeedbackSettings]
     plant: PlantSettings
     controller_tf: Optional[ControllerTransferFunction] = None
@@ -272,10 +364,29 @@ class System:
                               self.parameters['observer.method'],
                               self.interval_resolution_ns)
 
+    def make_stream(self) -> StreamEstimator:
+        """
+        Build the :class:`StreamEstimator` the observer node and the bag replay both run.
+
+        Its gap, clock tolerance and value limits come from ``observer.max_gap``,
+        ``observer.clock_tolerance`` and ``topics.<topic>.limit``; inputs count as stamped
+        when ``topics.u.type`` carries a header.
+        """
+        params = self.parameters
+        limits = ValueLimits(measurement=params['topics.y.limit'],
+                             input=params['topics.u.limit'],
+                             estimate=params['topics.x_hat.limit'],
+                             innovation=params['topics.innovation.limit'])
+        return StreamEstimator(
+            self.make_estimator(), round(params['observer.max_gap'] * NANOSECONDS),
+            input_stamped=params['topics.u.type'] == 'joint_state',
+            clock_tolerance_ns=round(params['observer.clock_tolerance'] * NANOSECONDS),
+            limits=limits)
+
     @property
     def interval_resolution_ns(self) -> int:
         """``observer.interval_resolution`` in integer nanoseconds."""
-        return round(self.parameters['observer.interval_resolution'] * 1e9)
+        return round(self.parameters['observer.interval_resolution'] * NANOSECONDS)
 
 
 def flatten_parameters(tree: Mapping, prefix: str = '') -> dict:
@@ -327,22 +438,32 @@ def load_parameter_file(path: str, node_name: Optional[str] = None) -> dict:
     return flat
 
 
+def _check_range(spec: ParameterSpec, value):
+    low, high = spec.low, spec.high
+    below = low is not None and (value <= low if spec.low_open else value < low)
+    if below or (high is not None and value > high):
+        raise ConfigError(spec.name, f'expected {spec.unit} in {spec.range_text()}, '
+                          f'got {value:g}')
+    return value
+
+
 def _coerce(spec: ParameterSpec, value: Any) -> Any:
-    """Check and convert one value to its declared type; integers are accepted as doubles."""
+    """Check and convert one value to its declared type and range; integers count as doubles."""
     name, kind = spec.name, spec.kind
     if value is None:
         return spec.default
     if kind == DOUBLE:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
+        numeric = (int, float, np.integer, np.floating)
+        if isinstance(value, bool) or not isinstance(value, numeric):
             raise ConfigError(name, f'expected a number, got {value!r}')
         value = float(value)
         if not math.isfinite(value):
             raise ConfigError(name, f'expected a finite number, got {value}')
-        return value
+        return _check_range(spec, value)
     if kind == INTEGER:
-        if isinstance(value, bool) or not isinstance(value, int):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
             raise ConfigError(name, f'expected an integer, got {value!r}')
-        return int(value)
+        return _check_range(spec, int(value))
     if kind == BOOL:
         if not isinstance(value, bool):
             raise ConfigError(name, f'expected true or false, got {value!r}')
@@ -359,7 +480,14 @@ def _coerce(spec: ParameterSpec, value: Any) -> Any:
             if isinstance(item, bool) or not isinstance(item, (int, float, np.floating,
                                                                np.integer)):
                 raise ConfigError(name, f'expected numbers, entry {index} is {item!r}')
-        return [float(item) for item in items]
+        values = [float(item) for item in items]
+        for index, item in enumerate(values):
+            if not math.isfinite(item):
+                raise ConfigError(name, f'expected finite numbers, entry {index} is {item}')
+            if spec.entry_limit is not None and abs(item) > spec.entry_limit:
+                raise ConfigError(name, f'expected entries of magnitude <= '
+                                  f'{spec.entry_limit:g}, entry {index} is {item:g}')
+        return values
     return [item if isinstance(item, str) else str(item) for item in items]
 
 
@@ -494,14 +622,27 @@ def _feedback(params: dict, model: StateSpaceModel) -> Optional[FeedbackSettings
     else:
         reference_gain = design.reference_gain
     limits = _limits('feedback.input_limits', params['feedback.input_limits'], model.n_inputs)
-    timeout = params['feedback.timeout']
-    if timeout <= 0.0:
-        raise ConfigError('feedback.timeout', f'expected a time > 0 s, got {timeout}')
     safe = params['feedback.safe_command']
     safe_command = (vector_from_flat('feedback.safe_command', safe, model.n_inputs) if safe
                     else np.zeros(model.n_inputs))
+    _check_inside('feedback.safe_command', safe_command, limits, 'feedback.input_limits')
+    _check_inside('feedback.safe_command', safe_command,
+                  params['topics.u_cmd.limit'], 'topics.u_cmd.limit')
     return FeedbackSettings(design=design, reference_gain=reference_gain, input_limits=limits,
-                            timeout=timeout, safe_command=safe_command)
+                            timeout=params['feedback.timeout'], safe_command=safe_command)
+
+
+def _check_inside(parameter: str, vector: np.ndarray, limits, source: str) -> None:
+    """Refuse a vector outside ``limits`` (an ``(m, 2)`` array, or a magnitude bound)."""
+    if limits is None:
+        return
+    if np.ndim(limits) == 0:
+        outside = np.abs(vector) > limits
+    else:
+        outside = (vector < limits[:, 0]) | (vector > limits[:, 1])
+    if outside.any():
+        raise ConfigError(parameter, f'{vector.tolist()} lies outside {source} '
+                          f'({np.asarray(limits).tolist()})')
 
 
 def _limits(parameter: str, values, n_inputs: int):
@@ -513,14 +654,14 @@ def _limits(parameter: str, values, n_inputs: int):
 
 def _plant(params: dict, model: StateSpaceModel) -> PlantSettings:
     rate = params['plant.rate_hz']
-    if rate <= 0.0:
-        raise ConfigError('plant.rate_hz', f'expected a rate > 0 Hz, got {rate}')
     if model.is_discrete and abs(rate * model.dt - 1.0) > 1e-9:
         raise ConfigError('plant.rate_hz', f'a discrete model with model.dt = {model.dt} s '
                           f'runs at {1.0 / model.dt:g} Hz, got {rate}')
     initial = params['plant.initial_state']
     initial_state = (vector_from_flat('plant.initial_state', initial, model.n_states)
                      if initial else np.zeros(model.n_states))
+    _check_inside('plant.initial_state', initial_state, params['topics.x_true.limit'],
+                  'topics.x_true.limit')
     if params['plant.process_noise']:
         covariance_from_flat('plant.process_noise', params['plant.process_noise'],
                              model.n_states)
@@ -545,19 +686,11 @@ def _check_topics(params: dict) -> None:
         if joint_field not in JOINT_STATE_FIELDS:
             raise ConfigError(f'topics.{topic}.field', f'expected one of '
                               f'{", ".join(JOINT_STATE_FIELDS)}, got {joint_field!r}')
-    for name in ('observer.input_wait', 'observer.max_gap', 'plant.lockstep_timeout'):
-        if params[name] < 0.0 or (name != 'observer.input_wait' and params[name] == 0.0):
-            raise ConfigError(name, f'expected a positive time in seconds, got {params[name]}')
-    if params['plant.lockstep_subscribers'] < 1:
-        raise ConfigError('plant.lockstep_subscribers',
-                          f'expected >= 1, got {params["plant.lockstep_subscribers"]}')
-    if params['plant.samples'] < 0:
-        raise ConfigError('plant.samples', f'expected >= 0, got {params["plant.samples"]}')
 
 
 def _check_interval_resolution(params: dict, model: StateSpaceModel) -> None:
     resolution = params['observer.interval_resolution']
-    if resolution < 0.0 or resolution >= params['observer.max_gap']:
+    if resolution >= params['observer.max_gap']:
         raise ConfigError('observer.interval_resolution', f'expected seconds in [0, '
                           f'observer.max_gap = {params["observer.max_gap"]}), got {resolution}')
     if resolution and model.is_discrete:
@@ -607,7 +740,10 @@ def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> Syst
     _check_interval_resolution(complete, model)
     initial = complete['observer.initial_state']
     initial_estimate = (vector_from_flat('observer.initial_state', initial, model.n_states)
-                        if initial else np.zeros(model.n_states))
+                        if initial else None)
+    if initial_estimate is not None:
+        _check_inside('observer.initial_state', initial_estimate,
+                      complete['topics.x_hat.limit'], 'topics.x_hat.limit')
     feedback = _feedback(complete, model)
     plant = _plant(complete, model)
     controller_tf, cl_poles, notes = None, None, []

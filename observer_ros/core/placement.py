@@ -221,6 +221,17 @@ def _scipy_place(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
     return np.asarray(result.gain_matrix)
 
 
+def preload_methods() -> None:
+    """
+    Import what the placement methods need (python-control and slycot), now.
+
+    The core imports python-control only when Varga's method is first used, which takes
+    about a second; nodes call this at start-up so that no design on a callback path pays
+    for an import.
+    """
+    import control  # noqa: F401
+
+
 def _varga(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
     import control  # slycot is needed; imported lazily so the core imports without it
     return np.asarray(control.place_varga(a, b, poles))

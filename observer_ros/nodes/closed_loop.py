@@ -32,6 +32,7 @@ from rclpy.parameter import Parameter
 from rclpy.utilities import remove_ros_args
 
 from observer_ros.bags.storage import BagError, STORAGES, TopicToWrite, write_bag
+from observer_ros.core.config import System, validate_parameters
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.plots import write_run_report
 from observer_ros.nodes.observer import ObserverNode
@@ -63,7 +64,7 @@ class ClosedLoop:
             self.nodes.append(self.feedback)
             self.recorder = None
             if record:
-                self.recorder = TopicRecorder(self.plant.system, RECORDED_TOPICS,
+                self.recorder = TopicRecorder(self.system, RECORDED_TOPICS,
                                               context=context)
                 self.nodes.append(self.recorder)
         except Exception:
@@ -74,6 +75,14 @@ class ClosedLoop:
         self.executor = executor or SingleThreadedExecutor(context=context)
         for node in self.nodes:
             self.executor.add_node(node)
+
+    @property
+    def system(self) -> System:
+        """The whole loop's configuration: the three nodes' parameters validated together."""
+        merged = {}
+        for node in (self.plant, self.observer, self.feedback):
+            merged.update(node.current_parameters())
+        return validate_parameters(merged)
 
     def spin(self, timeout_sec: Optional[float] = None) -> bool:
         """Spin until ``plant.samples`` are done (or forever); True when they are."""
@@ -88,7 +97,7 @@ class ClosedLoop:
 
     def report(self, directory: str) -> str:
         """Error table of ``x_hat`` against ``x_true``; writes the PNG plot into ``directory``."""
-        system = self.observer.system
+        system = self.system
         return write_run_report(directory, 'closed_loop', system,
                                 *self.recorder.arrays('x_true'), *self.recorder.arrays('x_hat'),
                                 title=f'{system.observer.kind} observer in closed loop')

@@ -22,33 +22,36 @@ Also publishes ``innovation`` (``y - C x_hat_prior``), ``x_hat_covariance`` (Kal
 
 from collections import Counter
 
+import numpy as np
 from rclpy.clock import Clock, ClockType
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 
-from observer_ros.core.errors import ConfigError
+from observer_ros.core.config import OBSERVER
+from observer_ros.core.errors import ConfigError, ObserverRosError
 from observer_ros.core.estimators import step_design_for
-from observer_ros.core.streaming import StreamEstimator
+from observer_ros.core.placement import preload_methods
 from observer_ros.ros.diagnostics import DiagnosticsPublisher
 from observer_ros.ros.messages import MalformedMessage, VectorCodec
 from observer_ros.ros.parameters import ConfiguredNode, run_node
 
 NANOSECONDS = 1_000_000_000
 
+#: Errors a per-interval design may raise on a sample (the sample is dropped and counted).
+STEP_ERRORS = (ObserverRosError, np.linalg.LinAlgError, ValueError, ArithmeticError)
+
 
 class ObserverNode(ConfiguredNode):
     """The observer node: one :class:`StreamEstimator` wired to topics."""
 
     def __init__(self, node_name: str = 'observer', **kwargs) -> None:
-        super().__init__(node_name, **kwargs)
+        super().__init__(node_name, OBSERVER, **kwargs)
         system = self.system
         self.vet_system(system)
+        preload_methods()  # no placement method may import a module on a callback path
         self.codecs = {topic: VectorCodec.for_topic(system, topic)
                        for topic in ('y', 'u', 'x_hat', 'innovation')}
-        self.stream = StreamEstimator(
-            system.make_estimator(),
-            int(system.parameters['observer.max_gap'] * NANOSECONDS),
-            input_stamped=self.codecs['u'].stamped)
+        self.stream = system.make_stream()
         self.node_counters: Counter = Counter()
         self.x_hat_publisher = self._publisher('x_hat')
         self.innovation_publisher = self._publisher('innovation')
@@ -58,10 +61,12 @@ class ObserverNode(ConfiguredNode):
         self.topic_subscription(self.codecs['y'].message_class, 'y', self._on_measurement)
         self.topic_subscription(self.codecs['u'].message_class, 'u', self._on_input)
         self.create_service(Trigger, '~/reset', self._on_reset)
-        self.wait_timer = self.create_timer(
-            system.parameters['observer.input_wait'] or 1e-3, self._on_wait_expired,
-            clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.steady_clock = Clock(clock_type=ClockType.STEADY_TIME)
+        self.input_wait_ns = round(system.parameters['observer.input_wait'] * NANOSECONDS)
+        self.wait_timer = self.create_timer(max(self.input_wait_ns, 1) / NANOSECONDS,
+                                            self._on_wait_expired, clock=self.steady_clock)
         self.wait_timer.cancel()
+        self._waiting_for = None
         self.diagnostics = DiagnosticsPublisher(self, self.counters)
         self.get_logger().info(
             f'{system.observer.kind} observer of order {system.observer.order}, poles '
@@ -75,10 +80,22 @@ class ObserverNode(ConfiguredNode):
         return self.stream.counters + self.node_counters
 
     def vet_system(self, system) -> None:
-        """Refuse configurations without an observer."""
+        """Refuse configurations without an observer, or whose sampled steps fail."""
         if system.observer is None:
             raise ConfigError('observer.poles', 'the observer node needs observer.poles, '
                               'observer.gain or the Kalman noise covariances')
+        stream = getattr(self, 'stream', None)
+        if stream is None:
+            return
+        # Design the new observer now for the intervals in use, so that a change the
+        # sampled design cannot take is refused here instead of failing on a sample.
+        design = step_design_for(system.observer, system.parameters['observer.method'])
+        for dt_ns in stream.estimator.recent_intervals():
+            try:
+                design.step(dt_ns)
+            except STEP_ERRORS as e:
+                raise ConfigError(_source(system), f'the observer cannot be sampled at the '
+                                  f'running interval of {dt_ns / 1e9:g} s: {e}') from e
 
     def apply_system(self, previous, system) -> None:
         """Switch gains without touching the estimate (no jump in x_hat)."""
@@ -87,6 +104,8 @@ class ObserverNode(ConfiguredNode):
                                                  system.parameters['observer.method']))
         estimator.initial_state = system.initial_estimate
         estimator.interval_resolution_ns = system.interval_resolution_ns
+        self.stream.clock_tolerance_ns = round(
+            system.parameters['observer.clock_tolerance'] * NANOSECONDS)
 
     def _now_ns(self) -> int:
         return self.get_clock().now().nanoseconds
@@ -108,23 +127,56 @@ class ObserverNode(ConfiguredNode):
     def _on_measurement(self, message) -> None:
         stamp, y = self._decode('y', message)
         if y is not None:
-            self._publish(self.stream.add_measurement(stamp, y))
+            self._run(self.stream.add_measurement, stamp, y, self._now_ns(),
+                      self.steady_clock.now().nanoseconds)
 
     def _on_input(self, message) -> None:
         stamp, u = self._decode('u', message)
         if u is not None:
-            self._publish(self.stream.add_input(stamp, u))
+            self._run(self.stream.add_input, stamp, u, self._now_ns())
 
     def _on_wait_expired(self) -> None:
         self.wait_timer.cancel()
-        self._publish(self.stream.flush())
+        self._waiting_for = None
+        self._run(self.stream.flush, True)
+
+    def _run(self, call, *args) -> None:
+        """Make one stream call and publish what it produced; a failing step drops a sample."""
+        try:
+            samples = call(*args)
+        except STEP_ERRORS as e:
+            self.node_counters['step_failed'] += 1
+            self.warn_once('step failed', f'dropped a measurement: the observer step for '
+                           f'its interval failed ({e}); the estimator restarts')
+            self.stream.estimator.restart()
+            samples = []
+        self._publish(samples)
+        self._arm_wait_timer()
+
+    def _arm_wait_timer(self) -> None:
+        """Let the first waiting measurement wait ``observer.input_wait`` from its arrival."""
+        waiting = self.stream.waiting()
+        if waiting is None:
+            if self._waiting_for is not None:
+                self.wait_timer.cancel()
+                self._waiting_for = None
+            return
+        sequence, arrival = waiting
+        if sequence == self._waiting_for:
+            return
+        remaining = arrival + self.input_wait_ns - self.steady_clock.now().nanoseconds
+        if remaining <= 0:
+            self._on_wait_expired()
+            return
+        self._waiting_for = sequence
+        self.wait_timer.cancel()
+        self.wait_timer.timer_period_ns = remaining
+        self.wait_timer.reset()
 
     def _publish(self, samples) -> None:
         for kind, text in self.stream.events:
             self.warn_once(kind, text)
         self.stream.events.clear()
-        if self.stream.pending and self.wait_timer.is_canceled():
-            self.wait_timer.reset()
         for sample in samples:
             self.x_hat_publisher.publish(
                 self.codecs['x_hat'].encode(sample.stamp_ns, sample.estimate))
@@ -137,9 +189,18 @@ class ObserverNode(ConfiguredNode):
     def _on_reset(self, request, response):
         self.stream.reset()
         self.node_counters['resets'] += 1
+        self._arm_wait_timer()
         response.success = True
         response.message = 'estimator restarted from observer.initial_state'
         return response
+
+
+def _source(system) -> str:
+    """Return the parameter an observer design comes from, for error messages."""
+    params = system.parameters
+    if params['observer.type'] == 'kalman':
+        return 'observer.process_noise'
+    return 'observer.gain' if params['observer.gain'] else 'observer.poles'
 
 
 def main(args=None) -> int:

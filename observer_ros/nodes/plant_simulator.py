@@ -35,6 +35,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.task import Future
 from rosgraph_msgs.msg import Clock as ClockMessage
 
+from observer_ros.core.config import PLANT
 from observer_ros.core.simulation import PlantSimulator
 from observer_ros.ros.diagnostics import DiagnosticsPublisher
 from observer_ros.ros.messages import MalformedMessage, ns_to_stamp, VectorCodec
@@ -50,7 +51,7 @@ class PlantSimulatorNode(ConfiguredNode):
     """The plant simulator node. ``finished`` completes after ``plant.samples`` samples."""
 
     def __init__(self, node_name: str = 'plant_simulator', **kwargs) -> None:
-        super().__init__(node_name, **kwargs)
+        super().__init__(node_name, PLANT, **kwargs)
         system = self.system
         plant = system.plant
         params = system.parameters

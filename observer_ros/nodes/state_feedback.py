@@ -22,8 +22,10 @@ node publishes ``feedback.safe_command`` instead, and says so once per outage.
 
 from collections import Counter
 
+from observer_ros.core.config import FEEDBACK
 from observer_ros.core.control import StateFeedbackLaw
 from observer_ros.core.errors import ConfigError
+from observer_ros.core.placement import preload_methods
 from observer_ros.ros.diagnostics import DiagnosticsPublisher
 from observer_ros.ros.messages import MalformedMessage, VectorCodec
 from observer_ros.ros.parameters import ConfiguredNode, run_node
@@ -42,7 +44,8 @@ class StateFeedbackNode(ConfiguredNode):
     """The state-feedback node."""
 
     def __init__(self, node_name: str = 'state_feedback', **kwargs) -> None:
-        super().__init__(node_name, **kwargs)
+        super().__init__(node_name, FEEDBACK, **kwargs)
+        preload_methods()  # no placement method may import a module on a callback path
         system = self.system
         self.vet_system(system)
         self.law = feedback_law(system)

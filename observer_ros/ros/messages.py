@@ -34,7 +34,8 @@ from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from observer_ros.bags.cdr import DecodeError, HEADER, MessageReader, MessageWriter
+from observer_ros.bags.cdr import (
+    DecodeError, HEADER, MessageReader, MessageWriter, ORIGIN, STAMP)
 from observer_ros.core.config import System
 
 MESSAGE_CLASSES = {'joint_state': JointState, 'float64_multi_array': Float64MultiArray}
@@ -44,14 +45,37 @@ class MalformedMessage(ValueError):
     """A message that cannot give the expected vector (reason in the text)."""
 
 
+NANOSECONDS = 1_000_000_000
+
+#: The latest stamp a ``builtin_interfaces/Time`` holds (``sec`` is an int32).
+LATEST_STAMP_NS = (2 ** 31 - 1) * NANOSECONDS + NANOSECONDS - 1
+
+
 def stamp_to_ns(stamp) -> int:
     """``builtin_interfaces/Time`` to integer nanoseconds."""
-    return stamp.sec * 1_000_000_000 + stamp.nanosec
+    return stamp.sec * NANOSECONDS + stamp.nanosec
 
 
 def ns_to_stamp(stamp, nanoseconds: int) -> None:
     """Write integer nanoseconds into a ``builtin_interfaces/Time`` in place."""
-    stamp.sec, stamp.nanosec = divmod(int(nanoseconds), 1_000_000_000)
+    stamp.sec, stamp.nanosec = divmod(int(nanoseconds), NANOSECONDS)
+
+
+def stamp_problem(seconds: int, nanoseconds: int) -> Optional[str]:
+    """Why ``(sec, nanosec)`` is no usable time (None when it is one)."""
+    if not 0 <= nanoseconds < NANOSECONDS:
+        return f'invalid stamp sec={seconds}, nanosec={nanoseconds} (nanosec must be < 1e9)'
+    if seconds < 0:
+        return f'invalid stamp sec={seconds}, nanosec={nanoseconds} (before 1970: negative)'
+    return None
+
+
+def check_publishable_stamp(stamp_ns: int) -> int:
+    """Return ``stamp_ns`` if a ``builtin_interfaces/Time`` holds it, else raise ValueError."""
+    if not 0 <= stamp_ns <= LATEST_STAMP_NS:
+        raise ValueError(f'stamp {stamp_ns} ns does not fit builtin_interfaces/Time '
+                         f'(0 ... {LATEST_STAMP_NS} ns)')
+    return stamp_ns
 
 
 class VectorCodec:
@@ -96,7 +120,17 @@ class VectorCodec:
                    names)
 
     def encode(self, stamp_ns: int, vector) -> bytes:
-        """Serialize a message holding ``vector`` (stamped when the type has a header)."""
+        """
+        Serialize a message holding ``vector`` (stamped when the type has a header).
+
+        Raises
+        ------
+        ValueError
+            The stamp does not fit ``builtin_interfaces/Time`` (see :data:`LATEST_STAMP_NS`).
+
+        """
+        if self.stamped:
+            check_publishable_stamp(stamp_ns)
         return self._writer.write(stamp_ns, vector)
 
     def message(self, stamp_ns: int, vector) -> object:
@@ -134,7 +168,8 @@ class VectorCodec:
         Raises
         ------
         MalformedMessage
-            Undecodable bytes, wrong length, missing joints or a non-finite value.
+            Undecodable bytes, wrong length, missing joints, a non-finite value, or a stamp
+            that is no time (``nanosec >= 1e9``, negative ``sec``).
 
         """
         if isinstance(message, bytes):
@@ -144,6 +179,8 @@ class VectorCodec:
                 stamp, values = self._reader.read(message)
             except DecodeError as e:
                 raise MalformedMessage(f'{self.topic}: {e}') from None
+            if self.stamped:
+                self._check_stamp(*STAMP.unpack_from(message, ORIGIN))
             vector = np.array(values, dtype=float)
             stamp = stamp or None
         elif self.kind == 'float64_multi_array':
@@ -161,10 +198,16 @@ class VectorCodec:
                     f'{len(values)} {self.field} values')
             order = self._order(message.name)
             vector = np.array([values[i] for i in order], dtype=float)
+            self._check_stamp(message.header.stamp.sec, message.header.stamp.nanosec)
             stamp = stamp_to_ns(message.header.stamp) or None
         if not all(math.isfinite(value) for value in vector):
             raise MalformedMessage(f'{self.topic}: non-finite value in {vector.tolist()}')
         return stamp, vector
+
+    def _check_stamp(self, seconds: int, nanoseconds: int) -> None:
+        problem = stamp_problem(seconds, nanoseconds)
+        if problem:
+            raise MalformedMessage(f'{self.topic}: {problem}')
 
     def _deserialize(self, raw: bytes) -> object:
         try:

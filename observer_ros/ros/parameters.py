@@ -15,8 +15,8 @@
 """
 ROS parameters to and from the core's one schema.
 
-:class:`ConfiguredNode` declares every parameter of :data:`observer_ros.core.config.PARAMETERS`
-(structural ones read-only), validates them with
+:class:`ConfiguredNode` declares the parameters of :data:`observer_ros.core.config.PARAMETERS`
+its node uses (structural ones read-only), validates them with
 :func:`observer_ros.core.config.validate_parameters` at start-up and vets every run-time
 change with the same function: a rejected change returns the reason and leaves everything
 as it was; an accepted one is applied after it is set.
@@ -31,6 +31,7 @@ from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 import rclpy
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
 from rclpy.qos import (
     DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy)
@@ -38,7 +39,9 @@ from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.subscription import Subscription
 from rclpy.utilities import remove_ros_args
 
-from observer_ros.core.config import PARAMETERS, System, validate_parameters
+from observer_ros.core.config import (
+    BOOL, DOUBLE, DOUBLE_ARRAY, INTEGER, node_parameters, PARAMETER_SPECS, ParameterSpec,
+    STRING, STRING_ARRAY, System, validate_parameters)
 from observer_ros.core.errors import ConfigError, DesignError
 
 
@@ -70,12 +73,59 @@ def publisher_qos() -> QoSProfile:
 QOS_OVERRIDES = QoSOverridingOptions.with_default_policies()
 
 
+#: The ROS parameter type of each schema kind.
+PARAMETER_TYPES = {
+    DOUBLE: Parameter.Type.DOUBLE, DOUBLE_ARRAY: Parameter.Type.DOUBLE_ARRAY,
+    STRING: Parameter.Type.STRING, STRING_ARRAY: Parameter.Type.STRING_ARRAY,
+    INTEGER: Parameter.Type.INTEGER, BOOL: Parameter.Type.BOOL}
+
+
+def coerced(spec: ParameterSpec, parameter: Parameter) -> Parameter:
+    """
+    Return ``parameter`` converted to the schema type where no value changes meaning.
+
+    Integers become doubles for double parameters (``ros2 param set ... "[1, 2]"``), numbers
+    become strings for pole lists; anything else is returned as it is, for the validation
+    to refuse with a reason.
+    """
+    kind, value, given = spec.kind, parameter.value, parameter.type_
+    if kind == DOUBLE and given == Parameter.Type.INTEGER:
+        return Parameter(parameter.name, Parameter.Type.DOUBLE, float(value))
+    if kind == DOUBLE_ARRAY and given in (Parameter.Type.INTEGER_ARRAY,
+                                          Parameter.Type.BYTE_ARRAY) and (
+            given == Parameter.Type.INTEGER_ARRAY or len(value) == 0):
+        return Parameter(parameter.name, Parameter.Type.DOUBLE_ARRAY,
+                         [float(item) for item in value])
+    if kind == STRING_ARRAY and (given in (Parameter.Type.DOUBLE_ARRAY,
+                                           Parameter.Type.INTEGER_ARRAY) or (
+            given == Parameter.Type.BYTE_ARRAY and len(value) == 0)):
+        return Parameter(parameter.name, Parameter.Type.STRING_ARRAY,
+                         [str(item) for item in value])
+    return parameter
+
+
+def type_problem(spec: ParameterSpec, parameter: Parameter) -> Optional[str]:
+    """Say why ``parameter`` cannot be the schema parameter ``spec`` (None when it can)."""
+    if parameter.type_ == Parameter.Type.NOT_SET:
+        return (f'{spec.name}: cannot be unset (NOT_SET); set its default '
+                f'{spec.default!r} instead')
+    if parameter.type_ != PARAMETER_TYPES[spec.kind]:
+        given = parameter.type_.name.lower()
+        return f'{spec.name}: expected {spec.kind}, got {given} {parameter.value!r}'
+    return None
+
+
 class ConfiguredNode(Node):
     """
     A node configured from the shared schema.
 
-    Subclasses read :attr:`system` after ``super().__init__`` and implement
-    :meth:`apply_system` to switch to a new validated configuration at run time.
+    Declares the parameters of its ``role`` (:func:`observer_ros.core.config.node_parameters`)
+    with their schema types, structural ones read-only. Subclasses read :attr:`system`
+    after ``super().__init__`` and implement :meth:`apply_system` to switch to a new
+    validated configuration at run time. A set-parameters request is vetted before anything
+    changes: a parameter set to NOT_SET or to another type is refused with a reason naming
+    it (integers are taken as doubles), and the merged values must pass
+    :func:`~observer_ros.core.config.validate_parameters` and :meth:`vet_system`.
 
     Raises
     ------
@@ -84,28 +134,69 @@ class ConfiguredNode(Node):
 
     """
 
-    def __init__(self, node_name: str, **kwargs) -> None:
+    def __init__(self, node_name: str, role: str, **kwargs) -> None:
         super().__init__(node_name, **kwargs)
-        for spec in PARAMETERS:
-            self.declare_parameter(spec.name, spec.default, ParameterDescriptor(
-                description=spec.description, read_only=not spec.dynamic,
-                dynamic_typing=True))
+        self.role = role
+        self.specs = {spec.name: spec for spec in node_parameters(role)}
+        for spec in self.specs.values():
+            self._declare(spec)
+        self._warn_unknown_overrides()
         self.system: System = validate_parameters(self.current_parameters())
         self._pending: Optional[System] = None
+        self.add_pre_set_parameters_callback(self._coerce_parameters)
         self.add_on_set_parameters_callback(self._vet_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
 
+    def _declare(self, spec: ParameterSpec) -> None:
+        # rclpy types an empty default list as a byte array and cannot declare a typed empty
+        # array: declare it, store the value with the schema type, then fix the descriptor.
+        descriptor = ParameterDescriptor(description=spec.description, dynamic_typing=True)
+        declared = self.declare_parameter(spec.name, spec.default, descriptor)
+        typed = coerced(spec, declared)
+        if typed is not declared:
+            self.set_parameters([typed])
+        self.set_descriptor(spec.name, ParameterDescriptor(
+            description=spec.description, read_only=not spec.dynamic, dynamic_typing=True,
+            additional_constraints=self._constraints(spec)))
+
+    @staticmethod
+    def _constraints(spec: ParameterSpec) -> str:
+        limits = spec.range_text() or (f'entries of magnitude <= {spec.entry_limit:g}'
+                                       if spec.entry_limit else '')
+        return f'{spec.kind}{" in " + limits if limits else ""}'
+
+    def _warn_unknown_overrides(self) -> None:
+        """Warn about names of this node's sections in the parameter file that none has."""
+        sections = {name.split('.', 1)[0] + '.' for name in self.specs}
+        given = getattr(self, '_parameter_overrides', {})  # rclpy keeps no public copy
+        unknown = sorted(name for name in given if name.startswith(tuple(sections))
+                         and name not in PARAMETER_SPECS)
+        for name in unknown:
+            self.get_logger().warning(
+                f'unknown parameter {name} in the parameter file is ignored (see the '
+                f'parameter schema in README)')
+
     def current_parameters(self) -> dict:
-        """All schema parameters as a flat ``{name: value}`` mapping."""
-        return {spec.name: self.get_parameter(spec.name).value for spec in PARAMETERS}
+        """Return this node's schema parameters as a flat ``{name: value}`` mapping."""
+        return {name: self.get_parameter(name).value for name in self.specs}
+
+    def _coerce_parameters(self, parameters) -> list:
+        return [coerced(self.specs[p.name], p) if p.name in self.specs else p
+                for p in parameters]
 
     def _vet_parameters(self, parameters) -> SetParametersResult:
         merged = self.current_parameters()
         touched = False
         for parameter in parameters:
-            if parameter.name in merged:
-                merged[parameter.name] = parameter.value
-                touched = True
+            spec = self.specs.get(parameter.name)
+            if spec is None:
+                continue
+            problem = type_problem(spec, parameter)
+            if problem:
+                self._pending = None
+                return SetParametersResult(successful=False, reason=problem)
+            merged[parameter.name] = parameter.value
+            touched = True
         if not touched:
             return SetParametersResult(successful=True)
         try:
