@@ -53,6 +53,10 @@ OBSERVER_TYPES = ('full_order', 'reduced_order', 'chen', 'kalman')
 
 NANOSECONDS = 1_000_000_000
 
+#: What numpy and scipy raise when a design's arithmetic breaks down (overflow, no
+#: convergence); a design that raises one is refused like any other failed design.
+NUMERIC_FAILURES = (np.linalg.LinAlgError, ValueError, ArithmeticError)
+
 DOUBLE, DOUBLE_ARRAY, STRING, STRING_ARRAY, INTEGER, BOOL = (
     'double', 'double_array', 'string', 'string_array', 'integer', 'bool')
 
@@ -67,6 +71,9 @@ ENTRY_LIMIT = 1e12
 
 #: Default of ``topics.<topic>.limit``: the largest magnitude a vector value may have.
 VALUE_LIMIT = 1e9
+
+#: Largest magnitude of a continuous pole (rad/s): beyond it the sampled designs overflow.
+POLE_LIMIT = 1e9
 
 #: Largest seed ``numpy.random.default_rng`` takes from a ROS integer parameter.
 SEED_MAX = 2 ** 63 - 1
@@ -520,9 +527,20 @@ def _named(parameter: str, error: Exception) -> ConfigError:
     return ConfigError(parameter, text)
 
 
+def _parsed_poles(params: dict, parameter: str) -> Optional[np.ndarray]:
+    """Parse a pole parameter (None when empty) and bound the magnitude of every pole."""
+    if not params[parameter]:
+        return None
+    poles = parse_poles(params[parameter], parameter)
+    huge = poles[np.abs(poles) > POLE_LIMIT]
+    if huge.size:
+        raise ConfigError(parameter, f'poles {format_modes(huge)} exceed {POLE_LIMIT:g} in '
+                          f'magnitude; no sampled design can realise them')
+    return poles
+
+
 def _observer_poles(params: dict, model: StateSpaceModel, count: int) -> Optional[np.ndarray]:
-    poles = (parse_poles(params['observer.poles'], 'observer.poles')
-             if params['observer.poles'] else None)
+    poles = _parsed_poles(params, 'observer.poles')
     tolerance, time = params['observer.error_tolerance'], params['observer.error_time']
     if tolerance == 0.0 and time == 0.0:
         return poles
@@ -607,14 +625,17 @@ def _feedback(params: dict, model: StateSpaceModel) -> Optional[FeedbackSettings
     if method not in METHODS:
         raise ConfigError('feedback.method', f'expected one of {", ".join(METHODS)}, '
                           f'got {method!r}')
-    poles = parse_poles(pole_text, 'feedback.poles') if pole_text else None
+    poles = _parsed_poles(params, 'feedback.poles')
     if poles is not None and poles.size != model.n_states:
         raise ConfigError('feedback.poles',
                           f'expected {model.n_states} poles, got {poles.size}')
+    source = 'feedback.gain' if gain is not None else 'feedback.poles'
     try:
         design = design_feedback(model, poles, gain, method)
-    except DesignError as e:
-        raise _named('feedback.gain' if gain is not None else 'feedback.poles', e) from e
+    except (ConfigError, DesignError) as e:
+        raise _named(source, e) from e
+    except NUMERIC_FAILURES as e:
+        raise ConfigError(source, f'the design failed numerically ({e})') from e
     reference = params['feedback.reference_gain']
     if reference:
         reference_gain = matrix_from_flat('feedback.reference_gain', reference,
@@ -730,13 +751,15 @@ def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> Syst
         complete['model.A'], complete['model.B'], complete['model.C'], complete['model.D'],
         complete['model.dt'], complete['model.state_names'], complete['model.input_names'],
         complete['model.output_names'])
+    parameter = 'observer.gain' if complete['observer.gain'] else 'observer.poles'
+    if complete['observer.type'] == 'kalman':
+        parameter = 'observer.process_noise'
     try:
         observer = _design_observer(complete, model)
-    except DesignError as e:
-        parameter = 'observer.gain' if complete['observer.gain'] else 'observer.poles'
-        if complete['observer.type'] == 'kalman':
-            parameter = 'observer.process_noise'
+    except (ConfigError, DesignError) as e:
         raise _named(parameter, e) from e
+    except NUMERIC_FAILURES as e:
+        raise ConfigError(parameter, f'the design failed numerically ({e})') from e
     _check_interval_resolution(complete, model)
     initial = complete['observer.initial_state']
     initial_estimate = (vector_from_flat('observer.initial_state', initial, model.n_states)

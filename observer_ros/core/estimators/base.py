@@ -30,8 +30,9 @@ from typing import Optional
 import numpy as np
 
 from observer_ros.core.discretize import zero_order_hold
-from observer_ros.core.errors import ConfigError, StampError
+from observer_ros.core.errors import ConfigError, DesignError, StampError
 from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.placement import place_observer
 from observer_ros.core.poles import to_discrete
 
 #: Number of distinct sample intervals whose step matrices are kept.
@@ -124,6 +125,23 @@ class StepDesign:
     def initial_estimate(self, initial_state: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Estimate at the first sample; reduced observers make it agree with ``y``."""
         return initial_state.copy()
+
+
+def place_sampled(a: np.ndarray, c: np.ndarray, poles: np.ndarray, method: str):
+    """
+    Verified observer gain for one sampled interval (:func:`place_observer`).
+
+    Sampling can make distinct continuous poles coincide (fast poles all map to
+    ``exp(lambda dt) = 0``), which a method such as ``'place'`` refuses; the interval is
+    then placed with ``'auto'``, which picks a method that takes repeated poles. The
+    result is verified either way.
+    """
+    try:
+        return place_observer(a, c, poles, method)
+    except DesignError:
+        if method == 'auto':
+            raise
+        return place_observer(a, c, poles, 'auto')
 
 
 def least_norm_consistent(c: np.ndarray, initial_state: np.ndarray, y: np.ndarray):

@@ -24,8 +24,8 @@ import numpy as np
 
 from observer_ros.core.design.common import ObserverDesign
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.estimators.base import assemble_step, StepDesign, StepMatrices
-from observer_ros.core.placement import place_observer
+from observer_ros.core.estimators.base import (
+    assemble_step, place_sampled, StepDesign, StepMatrices)
 
 
 def current_form(ad: np.ndarray, bd: np.ndarray, c: np.ndarray, filter_gain: np.ndarray,
@@ -74,5 +74,5 @@ class FullOrderStep(StepDesign):
         if self.filter_gain is not None:
             gain = self.filter_gain
         else:
-            gain = place_observer(ad, c @ ad, poles, self.method).gain
+            gain = place_sampled(ad, c @ ad, poles, self.method).gain
         return current_form(ad, bd, c, gain, poles)

@@ -29,8 +29,7 @@ import numpy as np
 
 from observer_ros.core.design.reduced_order import ReducedOrderDesign
 from observer_ros.core.estimators.base import (
-    assemble_step, least_norm_consistent, StepDesign, StepMatrices)
-from observer_ros.core.placement import place_observer
+    assemble_step, least_norm_consistent, place_sampled, StepDesign, StepMatrices)
 
 
 class ReducedOrderStep(StepDesign):
@@ -62,7 +61,7 @@ class ReducedOrderStep(StepDesign):
         if self.given_gain is not None:
             gain = self.given_gain
         else:
-            gain = place_observer(phi_bb, phi_ab, poles, self.method).gain
+            gain = place_sampled(phi_bb, phi_ab, poles, self.method).gain
         rows_a, rows_b = self.transform[:p], self.transform[p:]
         cols_a, cols_b = self.inverse[:, :p], self.inverse[:, p:]
         error_b = phi_bb - gain @ phi_ab

@@ -1,0 +1,282 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+What no input may do to the core: bad values, bad stamps and bad parameters.
+
+Every value a parameter can take is either refused with a reason naming it or runs; no
+sample, however wrong, puts a non-finite or out-of-range value out or captures the timeline.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from conftest import CONFIG_DIR
+from observer_ros.core.config import (
+    DOUBLE, INTEGER, load_parameter_file, PARAMETERS, validate_parameters)
+from observer_ros.core.design.full_order import design_full_order
+from observer_ros.core.errors import ConfigError
+from observer_ros.core.estimators import make_estimator
+from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.simulation import PlantSimulator
+from observer_ros.core.streaming import StreamEstimator, ValueLimits
+
+SECOND_NS = 1_000_000_000
+PERIOD_NS = 10_000_000
+SEED003 = load_parameter_file(str(CONFIG_DIR / 'seed003_full_order.yaml'))
+KALMAN = load_parameter_file(str(CONFIG_DIR / 'kalman_noisy.yaml'))
+
+
+def double_integrator_stream(**kwargs):
+    model = StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    design = design_full_order(model, poles=[-4, -5])
+    return StreamEstimator(make_estimator(design), SECOND_NS, **kwargs), model
+
+
+def samples(count, seed=0):
+    """Stamps, inputs and outputs of the double integrator under random inputs."""
+    model = StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    rng = np.random.default_rng(seed)
+    plant = PlantSimulator(model, [1.0, -0.5])
+    rows = []
+    for k in range(count):
+        u = rng.uniform(-1, 1, size=1)
+        rows.append((SECOND_NS + k * PERIOD_NS, u, plant.measure().copy()))
+        plant.step(u, PERIOD_NS / 1e9)
+    return rows
+
+
+def clean_run(rows):
+    stream, _ = double_integrator_stream()
+    out = []
+    for stamp, u, y in rows:
+        stream.add_input(stamp, u)
+        out += stream.add_measurement(stamp, y)
+    return [(s.stamp_ns, s.estimate.copy()) for s in out]
+
+
+def as_arrays(out):
+    return [s.stamp_ns for s in out], np.array([s.estimate for s in out])
+
+
+# --- parameters ---------------------------------------------------------------------------
+
+RANGED = [spec for spec in PARAMETERS if spec.kind in (DOUBLE, INTEGER)
+          and (spec.low is not None or spec.high is not None)]
+
+
+def outside(spec):
+    """Values just outside the range of ``spec``, and far outside."""
+    values = []
+    if spec.low is not None:
+        values += [spec.low if spec.low_open else spec.low - max(abs(spec.low) * 1e-3, 1),
+                   -1e300 if spec.kind == DOUBLE else -2 ** 63]
+    if spec.high is not None:
+        values += [spec.high + max(abs(spec.high) * 1e-3, 1),
+                   1e300 if spec.kind == DOUBLE else 2 ** 63 - 1]
+    values = [int(v) if spec.kind == INTEGER else v for v in values]
+    low = -math.inf if spec.low is None else spec.low
+    high = math.inf if spec.high is None else spec.high
+    return [v for v in values if v < low or v > high or (spec.low_open and v == low)]
+
+
+def test_every_number_parameter_has_a_range():
+    for spec in PARAMETERS:
+        if spec.kind in (DOUBLE, INTEGER):
+            assert spec in RANGED, spec.name
+
+
+@pytest.mark.parametrize('spec', RANGED, ids=[spec.name for spec in RANGED])
+def test_a_number_outside_its_range_is_refused_naming_the_parameter(spec):
+    for value in outside(spec):
+        params = dict(KALMAN if spec.name.startswith('observer.') else SEED003,
+                      **{spec.name: value})
+        with pytest.raises(ConfigError, match=f'^{spec.name}: expected'):
+            validate_parameters(params)
+
+
+@pytest.mark.parametrize('name,value,reason', [
+    ('feedback.timeout', 3e10, r'^feedback\.timeout: expected seconds in \[0\.001, 3600\]'),
+    ('feedback.timeout', 1e-9, r'^feedback\.timeout: expected seconds'),
+    ('observer.chen_seed', -1, r'^observer\.chen_seed: expected a seed in \[0, '),
+    ('plant.seed', -1, r'^plant\.seed: expected a seed'),
+    ('plant.rate_hz', 1e-300, r'^plant\.rate_hz: expected a rate in Hz'),
+    ('observer.poles', ['zeta=nan, wn=10'], r'^observer\.poles: damping ratio'),
+    ('feedback.poles', ['zeta=0.5, wn=nan'], r'^feedback\.poles: damping ratio'),
+    ('feedback.poles', ['zeta=-1, wn=3'], r'^feedback\.poles: expected zeta >= 0'),
+    ('observer.poles', ['-1e300', '-2'], r'^observer\.poles: poles .* exceed 1e\+09'),
+    ('feedback.poles', ['-1', '-1e12'], r'^feedback\.poles: poles .* exceed'),
+    ('observer.initial_state', [1e10, 0.0], r'^observer\.initial_state: expected entries'),
+    ('observer.gain', [1e300, 1.0], r'^observer\.gain: expected entries of magnitude'),
+    ('feedback.safe_command', [5.0], r'^feedback\.safe_command: \[5\.0\] lies outside '
+                                     r'feedback\.input_limits'),
+    ('topics.y.limit', 0.0, r'^topics\.y\.limit: expected a value in'),
+])
+def test_values_that_break_the_loop_are_refused(name, value, reason):
+    params = dict(SEED003, **{name: value})
+    if name == 'feedback.safe_command':
+        params['feedback.input_limits'] = [-1.0, 1.0]
+    with pytest.raises(ConfigError, match=reason):
+        validate_parameters(params)
+
+
+def test_a_numeric_breakdown_in_a_design_is_a_refusal_not_a_crash():
+    # A tiny pole next to a huge one overflowed the placement (LinAlgError) before.
+    for method in ('auto', 'place', 'acker'):
+        params = dict(SEED003, **{'observer.poles': ['-1e-300', '-1e9'],
+                                  'observer.method': method})
+        try:
+            system = validate_parameters(params)
+        except ConfigError as e:
+            assert str(e).startswith('observer.poles: ')
+        else:
+            assert system.observer is not None
+
+
+def test_sampling_that_merges_fast_poles_still_runs_with_a_single_pole_method():
+    # exp(lambda dt) is 0 for both poles at 10 ms: 'place' refuses repeated poles, so the
+    # sampled design takes 'auto'; before, every sample raised inside the callback.
+    system = validate_parameters(dict(SEED003, **{'observer.poles': ['-1e9', '-1e6'],
+                                                  'observer.method': 'place'}))
+    stream = system.make_stream()
+    out = []
+    for stamp, u, y in samples(20):
+        stream.add_input(stamp, u)
+        out += stream.add_measurement(stamp, y)
+    assert len(out) == 20 and np.isfinite(as_arrays(out)[1]).all()
+
+
+# --- values and stamps --------------------------------------------------------------------
+
+def test_a_huge_measurement_is_dropped_and_leaves_no_trace():
+    rows = samples(40)
+    stream, _ = double_integrator_stream(limits=ValueLimits(measurement=1e9))
+    out = []
+    for k, (stamp, u, y) in enumerate(rows):
+        stream.add_input(stamp, u)
+        if k == 10:  # before: x_hat went to 2.8e307 and stayed near 1e300
+            assert stream.add_measurement(stamp, [1e308]) == []
+            assert stream.add_measurement(stamp, [math.nan]) == []
+        out += stream.add_measurement(stamp, y)
+    assert stream.counters['out_of_range'] == 1 and stream.counters['malformed'] == 1
+    expected = clean_run(rows)
+    assert [s for s, _ in expected] == as_arrays(out)[0]
+    assert np.array_equal(np.array([e for _, e in expected]), as_arrays(out)[1])
+
+
+def test_an_estimate_beyond_its_limit_is_never_returned():
+    stream, _ = double_integrator_stream(limits=ValueLimits(estimate=0.9))
+    out = []
+    for stamp, u, y in samples(30):
+        stream.add_input(stamp, u)
+        out += stream.add_measurement(stamp, y)
+    assert stream.counters['estimate_reset'] > 0
+    assert all(np.abs(s.estimate).max() <= 0.9 for s in out)
+
+
+def test_a_measurement_far_ahead_of_the_clock_cannot_capture_the_timeline():
+    rows = samples(60)
+    stream, _ = double_integrator_stream(clock_tolerance_ns=SECOND_NS // 2)
+    out = []
+    for k, (stamp, u, y) in enumerate(rows):
+        now = stamp + 1_000_000  # the receiver's clock, 1 ms after the sample
+        stream.add_input(stamp, u, now)
+        if k == 20:  # before: the next 0.9 s of samples were dropped as out of order
+            assert stream.add_measurement(stamp + 900_000_000, y, now) == []
+        out += stream.add_measurement(stamp, y, now)
+    assert stream.counters['future_stamp'] == 1
+    assert stream.counters['out_of_order'] == 0
+    expected = clean_run(rows)
+    assert as_arrays(out)[0] == [s for s, _ in expected]
+    assert np.array_equal(as_arrays(out)[1], np.array([e for _, e in expected]))
+
+
+def test_an_input_stamped_in_the_future_is_dropped_and_the_right_inputs_are_used():
+    rows = samples(60)
+    stream, _ = double_integrator_stream(clock_tolerance_ns=SECOND_NS // 2)
+    out = []
+    for k, (stamp, u, y) in enumerate(rows):
+        now = stamp + 1_000_000
+        if k == 5:  # before: every later step used an earlier input, late_input stayed 0
+            assert stream.add_input(stamp + 100 * SECOND_NS, [3.0], now) == []
+        out += stream.add_measurement(stamp, y, now)  # y before its u: waits for it
+        out += stream.add_input(stamp, u, now)
+    assert stream.counters['future_stamp'] == 1 and stream.counters['late_input'] == 0
+    assert np.array_equal(as_arrays(out)[1], np.array([e for _, e in clean_run(rows)]))
+
+
+def test_the_clock_check_is_off_without_a_clock_or_a_tolerance():
+    stream, _ = double_integrator_stream(clock_tolerance_ns=SECOND_NS // 2)
+    assert len(stream.add_measurement(50 * SECOND_NS, [1.0], 0)) == 1  # sim time not yet set
+    stream, _ = double_integrator_stream()
+    assert len(stream.add_measurement(50 * SECOND_NS, [1.0], SECOND_NS)) == 1
+
+
+@pytest.mark.parametrize('steady', [True, False])
+def test_batch_replay_applies_the_same_value_and_clock_rules_as_the_stream(steady):
+    rows = samples(80)
+    stamps = np.array([r[0] for r in rows], dtype=np.int64)
+    inputs = np.array([r[1] for r in rows])
+    outputs = np.array([r[2] for r in rows])
+    if not steady:
+        stamps[30:] += 2 * SECOND_NS  # a gap: the sample-by-sample path
+    arrivals = stamps + 1_000_000
+    outputs[7] = 1e12                          # out of range
+    outputs[9] = math.nan                      # malformed
+    stamps[11] += 5 * SECOND_NS                # far ahead of its arrival
+    inputs[13] = 1e12
+    kwargs = dict(clock_tolerance_ns=SECOND_NS // 2,
+                  limits=ValueLimits(measurement=1e9, input=1e9))
+    live, _ = double_integrator_stream(**kwargs)
+    out = []
+    for k in range(len(rows)):
+        out += live.add_input(int(stamps[k] - (stamps[11] - arrivals[11] + 1_000_000
+                                               if k == 11 else 0)), inputs[k],
+                              int(arrivals[k]))
+        out += live.add_measurement(int(stamps[k]), outputs[k], int(arrivals[k]))
+    out += live.flush()
+    batch, _ = double_integrator_stream(**kwargs)
+    input_stamps = stamps.copy()
+    input_stamps[11] = arrivals[11] - 1_000_000
+    result = batch.replay(input_stamps, inputs, stamps, outputs, arrivals, arrivals)
+    assert result.stamps_ns.tolist() == as_arrays(out)[0]
+    assert np.array_equal(result.estimates, as_arrays(out)[1])
+    for key in ('out_of_range', 'malformed', 'future_stamp'):
+        assert batch.counters[key] == live.counters[key] == (2 if key == 'out_of_range' else 1)
+
+
+def test_the_first_measurement_initialises_an_unpinned_estimate():
+    stream, model = double_integrator_stream()
+    first = stream.add_measurement(SECOND_NS, [5015.0])[0]
+    assert first.estimate.tolist() == [5015.0, 0.0]
+    assert first.innovation.tolist() == [5015.0]   # y0 - C x0, was reported as 0
+    system = validate_parameters(dict(SEED003, **{'observer.initial_state': [1.0, 2.0]}))
+    pinned = system.make_stream().add_measurement(SECOND_NS, [5015.0])[0]
+    assert pinned.estimate.tolist() == [1.0, 2.0]
+    assert pinned.innovation.tolist() == [5014.0]
+
+
+def test_only_the_first_waiting_measurement_stops_waiting_on_flush():
+    stream, _ = double_integrator_stream()
+    stream.add_input(SECOND_NS, [0.0])
+    stream.add_measurement(SECOND_NS, [0.0], arrival_ns=1)
+    stream.add_measurement(SECOND_NS + PERIOD_NS, [0.0], arrival_ns=2)
+    assert stream.add_measurement(SECOND_NS + 2 * PERIOD_NS, [0.0], arrival_ns=3) == []
+    assert stream.add_measurement(SECOND_NS + 3 * PERIOD_NS, [0.0], arrival_ns=4) == []
+    first = stream.waiting()
+    assert first[1] == 3
+    assert len(stream.flush(first_only=True)) == 1
+    assert stream.waiting()[1] == 4 and stream.waiting()[0] != first[0]
