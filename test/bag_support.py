@@ -65,25 +65,41 @@ def robot_parameters(tmp_path):
     return path
 
 
-def write_robot_bag(path, samples=300, storage='mcap'):
-    """Record like ``ros2 bag record /joint_states /effort_controller/commands``."""
+#: Wall-clock start of the robot recordings (ns).
+WALL_START_NS = 1_700_000_000 * 10**9
+
+
+def write_robot_bag(path, samples=300, storage='mcap', topics=ROBOT_TOPICS,
+                    stamp_start_ns=WALL_START_NS, log_start_ns=WALL_START_NS,
+                    command_log_start_ns=None):
+    """
+    Record like ``ros2 bag record /joint_states /effort_controller/commands``.
+
+    The joint states are stamped from ``stamp_start_ns`` on (``0``: simulation time), the
+    recorder logs from ``log_start_ns`` (the commands from ``command_log_start_ns``, by
+    default the same); the commands are unstamped. ``topics`` names the two topics
+    (``joint_states`` without a slash, as some tools record).
+    """
     params = validate_parameters(load_parameter_file(str(CONFIG_DIR /
                                                          'seed003_full_order.yaml')))
     plant = PlantSimulator(params.model, initial_state=[0.5, -0.5])
     rng = np.random.default_rng(3)
     truth = []
+    if command_log_start_ns is None:
+        command_log_start_ns = log_start_ns
     with Writer(path, version=9, storage_plugin=STORAGES[storage]) as writer:
-        joints = writer.add_connection(ROBOT_TOPICS[0], JOINT_STATE, typestore=TYPESTORE)
-        commands = writer.add_connection(ROBOT_TOPICS[1], FLOAT64_MULTI_ARRAY,
-                                         typestore=TYPESTORE)
+        joints = writer.add_connection(topics[0], JOINT_STATE, typestore=TYPESTORE)
+        commands = writer.add_connection(topics[1], FLOAT64_MULTI_ARRAY, typestore=TYPESTORE)
         for index in range(samples):
-            stamp = 1_700_000_000 * 10**9 + index * 10**7
+            stamp = stamp_start_ns + index * 10**7
+            logged = log_start_ns + index * 10**7
             u = rng.uniform(-1.0, 1.0, size=1)
             y = plant.measure()
             truth.append(plant.x.copy())
             # The command in effect from this sample on was logged just before it.
-            writer.write(commands, stamp - 1000, serialize(float64_array(u)))
-            writer.write(joints, stamp, serialize(joint_state(
+            writer.write(commands, command_log_start_ns + index * 10**7 - 1000,
+                         serialize(float64_array(u)))
+            writer.write(joints, logged, serialize(joint_state(
                 stamp, ['wrist', 'elbow', 'shoulder'], [0.1, y[0], -0.2], [0.0, 1.0, 2.0])))
             plant.step(u, 0.01)
     return np.array(truth)

@@ -18,8 +18,12 @@ import subprocess
 
 import numpy as np
 import pytest
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import get_types_from_msg, get_typestore, Stores
+from sensor_msgs.msg import JointState
 
-from bag_support import robot_parameters, ROBOT_TOPICS, write_robot_bag
+from bag_support import (JOINT_STATE, joint_state, robot_parameters, ROBOT_TOPICS, serialize,
+                         TYPESTORE, write_robot_bag)
 from conftest import CONFIG_DIR
 from observer_ros.bags.replay import replay_bag
 from observer_ros.bags.storage import BagError, Playback, read_topic
@@ -161,3 +165,70 @@ def test_playback_lists_topics_and_counts(tmp_path):
     assert [m[1] for m in messages] == sorted(m[1] for m in messages)
     recorded = read_topic(bag, '/joint_states', 'joint_state', 'position', ['elbow'])
     assert np.array_equal([m[1] for m in messages], recorded.log_times_ns)
+
+
+#: The robot's topics as recorded without the leading slash.
+RELATIVE_TOPICS = tuple(topic.lstrip('/') for topic in ROBOT_TOPICS)
+
+
+def test_topics_recorded_without_a_slash_are_selected_paced_and_awaited(tmp_path):
+    bag = tmp_path / 'robot'
+    write_robot_bag(bag, samples=60, topics=RELATIVE_TOPICS)
+    params = robot_parameters(tmp_path)
+    offline = replay_bag(bag, params, *RELATIVE_TOPICS)
+    (stamps, estimates), out, _ = play_through_observer(
+        bag, params, 60, '--topics', *RELATIVE_TOPICS, '--wait-for', ROBOT_TOPICS[1],
+        '--paced-by', 'x_hat', '--trigger', RELATIVE_TOPICS[0],
+        remap=[f'y:={ROBOT_TOPICS[0]}', f'u:={ROBOT_TOPICS[1]}'])
+    assert '60 answered, 0 unanswered' in out
+    assert 'played 120 messages (/effort_controller/commands 60, /joint_states 60)' in out
+    assert np.array_equal(stamps, offline.stamps_ns)
+    assert np.array_equal(estimates, offline.estimates)
+
+
+def test_exclude_refuses_a_topic_the_bag_does_not_have(tmp_path):
+    bag = tmp_path / 'robot'
+    write_robot_bag(bag, samples=10, topics=RELATIVE_TOPICS)
+    one_error_line(run_player(bag, '--exclude', 'x_hatt', '--wait', '0'),
+                   '--exclude: ', 'has no topic x_hatt', 'the bag has joint_states (sensor_msgs'
+                   '/msg/JointState), effort_controller/commands (std_msgs')
+    one_error_line(run_player(bag, '--exclude', *RELATIVE_TOPICS), 'nothing to play')
+    # Excluded by either spelling: only the commands are played.
+    played = run_player(bag, '--exclude', ROBOT_TOPICS[0], '--rate', '100', '--wait', '0')
+    assert played.returncode == 0, played.stderr
+    assert 'played 10 messages (/effort_controller/commands 10)' in played.stdout
+    one_error_line(run_player(bag, '--paced-by', 'x_hat', '--trigger', 'y'),
+                   '--trigger: /y is not among the played topics (effort_controller/commands, '
+                   'joint_states)')
+
+
+def test_every_missing_message_type_is_named_at_once(tmp_path):
+    store = get_typestore(Stores.ROS2_JAZZY)
+    store.register(get_types_from_msg('float64 x', 'foo_msgs/msg/Bar'))
+    store.register(get_types_from_msg('float64 y', 'baz_msgs/msg/Qux'))
+    bag = tmp_path / 'foreign'
+    with Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        bars = writer.add_connection('/a', 'foo_msgs/msg/Bar', typestore=store)
+        quxes = writer.add_connection('b', 'baz_msgs/msg/Qux', typestore=store)
+        joints = writer.add_connection('/joint_states', JOINT_STATE, typestore=TYPESTORE)
+        for index in range(5):
+            writer.write(bars, index, bytes(store.serialize_cdr(
+                store.types['foo_msgs/msg/Bar'](x=1.0), 'foo_msgs/msg/Bar')))
+            writer.write(quxes, index, bytes(store.serialize_cdr(
+                store.types['baz_msgs/msg/Qux'](y=1.0), 'baz_msgs/msg/Qux')))
+            writer.write(joints, index, serialize(joint_state(index + 1, ['a'], [1.0])))
+    one_error_line(run_player(bag, '--wait', '0'),
+                   'message types not installed here: /a (foo_msgs/msg/Bar), b '
+                   '(baz_msgs/msg/Qux); leave them out with --exclude /a b')
+    played = run_player(bag, '--exclude', '/a', 'b', '--rate', '100', '--wait', '0')
+    assert played.returncode == 0, played.stderr
+    assert 'played 5 messages (/joint_states 5)' in played.stdout
+
+
+def test_message_types_without_msg_resolve():
+    assert message_class('sensor_msgs/JointState', '/t') is JointState
+    assert message_class('sensor_msgs/msg/JointState', '/t') is JointState
+    assert message_class('std_srvs/srv/Trigger_Event', '/t/_service_event').__name__ == (
+        'Trigger_Event')
+    with pytest.raises(BagError, match='test_msgs/BasicTypes is not installed here'):
+        message_class('test_msgs/BasicTypes', 'topic1')

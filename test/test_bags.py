@@ -151,7 +151,7 @@ def test_mcap_reading_equals_rosbags(tmp_path, compression):
                                    'position', ['y1'])
         assert np.array_equal(data.stamps_ns, stamps) and np.array_equal(data.values, values)
     with Reader(path) as reader:  # which reader read_topics took
-        files = _mcap_files(reader, path)
+        files = _mcap_files(reader)
     if compression in (None, CompressionMode.STORAGE):  # the MCAP files are read directly
         assert files == sorted(path.glob('*.mcap'))
         found = read_mcap_topics(files, ['/a', '/b'])

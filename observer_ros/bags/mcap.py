@@ -27,7 +27,7 @@ connections, counts) still comes from ``rosbags``.
 import mmap
 from pathlib import Path
 import struct
-from typing import Iterable, Sequence
+from typing import Callable, Iterable, Optional, Sequence
 import zlib
 
 import numpy as np
@@ -71,9 +71,10 @@ def _decompress(data: bytes, compression: str, size: int) -> bytes:
 class _Collector:
     """Walk records and keep the wanted topics' messages."""
 
-    def __init__(self, topics: Iterable[str]) -> None:
+    def __init__(self, topics: Iterable[str], key: Optional[Callable[[str], str]]) -> None:
         self.by_topic = {topic: ([], []) for topic in topics}
         self.by_channel: dict = {}
+        self.key = key
 
     def walk(self, buffer, offset: int, end: int, top: bool) -> None:
         by_channel = self.by_channel
@@ -98,6 +99,8 @@ class _Collector:
             elif opcode == OP_CHANNEL:
                 channel, _, size = CHANNEL.unpack_from(buffer, body)
                 topic = buffer[body + 8:body + 8 + size].decode('utf-8')
+                if self.key is not None:
+                    topic = self.key(topic)
                 if topic in self.by_topic:
                     by_channel[channel] = self.by_topic[topic]
             elif top and opcode in (OP_DATA_END, OP_FOOTER):
@@ -124,11 +127,14 @@ class _Collector:
         self.walk(records, start, stop, top=False)
 
 
-def read_mcap_topics(paths: Sequence[Path], topics: Sequence[str]) -> dict:
+def read_mcap_topics(paths: Sequence[Path], topics: Sequence[str],
+                     key: Optional[Callable[[str], str]] = None) -> dict:
     """
     Return ``{topic: (log_times, raws)}`` of the wanted topics over the files in turn.
 
-    ``log_times`` is an int64 array in ascending order (stable), ``raws`` the serialized
+    A channel's topic is passed through ``key`` (when given) before it is compared with
+    ``topics``: :func:`observer_ros.bags.storage.absolute_topic` makes ``a`` and ``/a`` one
+    topic. ``log_times`` is an int64 array in ascending order (stable), ``raws`` the serialized
     messages (``bytes``) in the same order.
 
     Raises
@@ -137,7 +143,7 @@ def read_mcap_topics(paths: Sequence[Path], topics: Sequence[str]) -> dict:
         Not an MCAP file, a truncated or corrupt record, an unsupported compression.
 
     """
-    collector = _Collector(topics)
+    collector = _Collector(topics, key)
     for path in paths:
         with open(path, 'rb') as stream:
             if stream.read(len(MAGIC)) != MAGIC:

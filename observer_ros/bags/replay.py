@@ -28,18 +28,22 @@ from your own tests::
 from dataclasses import dataclass, field
 import os
 from pathlib import Path
-import tempfile
+import shutil
 from typing import Optional, Union
 
 import numpy as np
 
 from observer_ros.bags.storage import (
-    read_topics, TopicData, TopicRequest, TopicToWrite, write_bag)
+    absolute_topic, BagError, read_topics, STORAGES, TopicData, TopicRequest, TopicToWrite,
+    write_bag)
 from observer_ros.core.config import load_parameter_file, System, validate_parameters
 from observer_ros.core.evaluation import align
 from observer_ros.core.streaming import StreamEstimator
 
 NANOSECONDS = 1_000_000_000
+
+#: Inputs, evenly spread, whose stamps are compared with the measurements' time base.
+TIME_BASE_SAMPLES = 4096
 
 
 def topic_request(system: System, key: str, topic: Optional[str] = None) -> TopicRequest:
@@ -58,6 +62,77 @@ def topic_data(path, system: System, key: str, topic: Optional[str] = None) -> T
     return read_topics(path, [topic_request(system, key, topic)])[0]
 
 
+def log_timed(data: TopicData) -> TopicData:
+    """Return ``data`` stamped with its log times (the recorder's clock) instead."""
+    return TopicData(data.log_times_ns, data.log_times_ns, data.values)
+
+
+def _seconds(ns: float) -> str:
+    return f'{ns / NANOSECONDS:.6g} s'
+
+
+def _clock(data: TopicData) -> str:
+    """Say how a stream's stamps relate to its log times, for the time-base message."""
+    offsets = data.stamps_ns - data.log_times_ns
+    if not offsets.any():
+        return 'uses its log times (unstamped, or stamped on arrival)'
+    return f'has header stamps {_seconds(float(np.median(offsets)))} from its log times'
+
+
+def check_time_bases(outputs: TopicData, inputs: TopicData, max_gap_ns: int, bag: str = '',
+                     y_topic: str = 'y', u_topic: str = 'u') -> None:
+    """
+    Refuse measurements and inputs stamped in different time bases.
+
+    A ``y`` stamped in simulation time (header stamps near 0 s) with an unstamped ``u``
+    that falls back to the recorder's wall-clock log times pairs every interval with the
+    wrong input (or none), which the counters only show as ``late_input``. Two tests,
+    each beyond ``max_gap_ns``:
+
+    * both streams' stamps against the one clock of the recording, their log times:
+      ``stamp - log time`` of each input against that of the measurement logged next
+      (median over up to :data:`TIME_BASE_SAMPLES` inputs spread over the recording; a
+      simulation that runs slower or faster than real time drifts both alike);
+    * the stamp ranges themselves, for bags whose log times copy the stamps: apart by
+      more than both spans together.
+
+    Raises
+    ------
+    observer_ros.bags.storage.BagError
+        What was found, and what to do: stamp the inputs in the measurements' clock, or
+        replay with log times for both (``replay --use-log-time``,
+        ``replay_bag(..., use_log_time=True)``).
+
+    """
+    if not len(outputs.stamps_ns) or not len(inputs.stamps_ns):
+        return
+    advice = (f'stamp {u_topic} in the clock of {y_topic}, or replay with log times for both '
+              f'(replay --use-log-time, replay_bag(..., use_log_time=True))')
+    prefix = f'{bag}: ' if bag else ''
+    # At most TIME_BASE_SAMPLES inputs, evenly spread, each against the measurement logged
+    # at (or next after) it; float: offsets near the int64 limits, far below max_gap.
+    step = max(1, len(inputs.stamps_ns) // TIME_BASE_SAMPLES)
+    u_logged = inputs.log_times_ns[::step]
+    u_offsets = inputs.stamps_ns[::step].astype(float) - u_logged
+    at = np.minimum(np.searchsorted(outputs.log_times_ns, u_logged), len(outputs.stamps_ns) - 1)
+    y_offsets = outputs.stamps_ns[at].astype(float) - outputs.log_times_ns[at]
+    difference = float(np.median(u_offsets - y_offsets))
+    if abs(difference) > max_gap_ns:
+        raise BagError(f'{prefix}{y_topic} and {u_topic} are stamped in different time bases: '
+                       f'{y_topic} {_clock(outputs)}, {u_topic} {_clock(inputs)} '
+                       f'({_seconds(abs(difference))} apart, more than observer.max_gap); '
+                       f'every interval would use the wrong input. {advice}')
+    y_first, y_last = int(outputs.stamps_ns.min()), int(outputs.stamps_ns.max())
+    u_first, u_last = int(inputs.stamps_ns.min()), int(inputs.stamps_ns.max())
+    apart = max(u_first - y_last, y_first - u_last)
+    if apart > max(max_gap_ns, (y_last - y_first) + (u_last - u_first)):
+        raise BagError(f'{prefix}{y_topic} and {u_topic} are stamped in different time bases: '
+                       f'{y_topic} spans {_seconds(y_first)} to {_seconds(y_last)}, '
+                       f'{u_topic} {_seconds(u_first)} to {_seconds(u_last)} '
+                       f'({_seconds(apart)} apart); every interval would use the wrong '
+                       f'input. {advice}')
+
+
 @dataclass
 class ReplayResult:
     """Estimates of a replay, with what was read and the stream's counters."""
@@ -70,10 +145,12 @@ class ReplayResult:
     outputs: TopicData
     inputs: TopicData
     counters: dict = field(default_factory=dict)
+    use_log_time: bool = False
 
     def truth(self, topic: str = 'x_true') -> TopicData:
-        """Read the true state (or another reference topic) from the bag."""
-        return topic_data(self.bag, self.system, 'x_true', topic)
+        """Read the true state (or another reference topic) from the bag, in the replay's time."""
+        data = topic_data(self.bag, self.system, 'x_true', topic)
+        return log_timed(data) if self.use_log_time else data
 
     def error_norms(self, topic: str = 'x_true') -> np.ndarray:
         """``||x_true - x_hat||`` at the stamps both have, in time order."""
@@ -83,27 +160,14 @@ class ReplayResult:
         return np.linalg.norm(reference - estimate, axis=1)
 
 
-def replay_bag(bag: Union[str, os.PathLike], parameters: Union[str, os.PathLike, System],
-               y_topic: str = 'y', u_topic: str = 'u') -> ReplayResult:
+def load_system(parameters: Union[str, os.PathLike, System]) -> System:
     """
-    Run the configured observer over a bag.
-
-    Parameters
-    ----------
-    bag : path-like
-        rosbag2 directory (MCAP or sqlite3).
-    parameters : path-like or System
-        Parameter file (``/**: ros__parameters:``) or an already validated system. Its
-        ``topics.y.*`` and ``topics.u.*`` give the message types, fields and joint names.
-    y_topic, u_topic : str
-        Topic names in the bag (``y`` is ``/y``).
+    Return the validated system of a parameter file (or ``parameters`` itself).
 
     Raises
     ------
-    observer_ros.bags.storage.BagError
-        The bag cannot give the topics (see :func:`observer_ros.bags.storage.read_topic`).
     observer_ros.core.errors.ConfigError
-        A bad parameter file, naming the parameter.
+        A bad parameter file, or one without an observer, naming the parameter.
 
     """
     system = parameters if isinstance(parameters, System) else validate_parameters(
@@ -112,15 +176,127 @@ def replay_bag(bag: Union[str, os.PathLike], parameters: Union[str, os.PathLike,
         from observer_ros.core.errors import ConfigError
         raise ConfigError('observer.poles', 'replay needs an observer: observer.poles, '
                           'observer.gain or the Kalman noise covariances')
+    return system
+
+
+def replay_bag(bag: Union[str, os.PathLike], parameters: Union[str, os.PathLike, System],
+               y_topic: str = 'y', u_topic: str = 'u',
+               use_log_time: bool = False) -> ReplayResult:
+    """
+    Run the configured observer over a bag.
+
+    Parameters
+    ----------
+    bag : path-like
+        rosbag2 directory (MCAP or sqlite3), or one storage file.
+    parameters : path-like or System
+        Parameter file (``/**: ros__parameters:``) or an already validated system. Its
+        ``topics.y.*`` and ``topics.u.*`` give the message types, fields and joint names.
+    y_topic, u_topic : str
+        Topic names in the bag (``y`` is ``/y``; a bag's ``y`` recorded without the slash
+        is found either way).
+    use_log_time : bool
+        Stamp ``y`` and ``u`` (and the truth) with their log times, the recorder's clock,
+        instead of their header stamps: for bags whose streams are stamped in different
+        time bases (see :func:`check_time_bases`).
+
+    Raises
+    ------
+    observer_ros.bags.storage.BagError
+        The bag cannot give the topics (see :func:`observer_ros.bags.storage.read_topic`),
+        or they are stamped in different time bases.
+    observer_ros.core.errors.ConfigError
+        A bad parameter file, naming the parameter.
+
+    """
+    system = load_system(parameters)
     outputs, inputs = read_topics(bag, [topic_request(system, 'y', y_topic),
                                         topic_request(system, 'u', u_topic)])
-    stream = StreamEstimator(system.make_estimator(),
-                             int(system.parameters['observer.max_gap'] * NANOSECONDS),
-                             input_stamped=system.parameters['topics.u.type'] == 'joint_state')
+    max_gap_ns = int(system.parameters['observer.max_gap'] * NANOSECONDS)
+    input_stamped = system.parameters['topics.u.type'] == 'joint_state'
+    if use_log_time:
+        outputs, inputs, input_stamped = log_timed(outputs), log_timed(inputs), False
+    else:
+        check_time_bases(outputs, inputs, max_gap_ns, str(bag), absolute_topic(y_topic),
+                         absolute_topic(u_topic))
+    stream = StreamEstimator(system.make_estimator(), max_gap_ns, input_stamped=input_stamped)
     result = stream.replay(inputs.stamps_ns, inputs.values, outputs.stamps_ns, outputs.values,
                            inputs.log_times_ns, outputs.log_times_ns)
     return ReplayResult(system, str(bag), result.stamps_ns, result.estimates,
-                        result.innovations, outputs, inputs, dict(stream.counters))
+                        result.innovations, outputs, inputs, dict(stream.counters),
+                        use_log_time)
+
+
+def missing_parents(path: Path) -> list:
+    """Return the ancestors of ``path`` that do not exist yet, nearest first."""
+    missing = []
+    for parent in path.absolute().parents:
+        if parent.exists():
+            break
+        missing.append(parent)
+    return missing
+
+
+def check_outputs(bag: Optional[str] = None, csv: Optional[str] = None,
+                  report: Optional[str] = None) -> None:
+    """
+    Check that the outputs of a replay can be written, before anything is.
+
+    The bag must not exist, the CSV must not be a directory, the report must be a
+    directory (or not exist), none may name another, and each must land in a directory
+    that can be created and written.
+
+    Raises
+    ------
+    observer_ros.bags.storage.BagError
+        The first output that cannot be written, naming its option.
+
+    """
+    named = [(option, Path(value)) for option, value in
+             (('--output', bag), ('--csv', csv), ('--report', report)) if value is not None]
+    for index, (option, path) in enumerate(named):
+        if option == '--output' and os.path.lexists(path):
+            raise BagError(f'--output: {path} exists already; choose a new output path')
+        if option == '--csv' and path.is_dir():
+            raise BagError(f'--csv: {path} is a directory; give a file name')
+        if option == '--report' and path.exists() and not path.is_dir():
+            raise BagError(f'--report: {path} is a file; give a directory')
+        for other, other_path in named[index + 1:]:
+            first, second = path.absolute(), other_path.absolute()
+            if first == second or first in second.parents or second in first.parents:
+                raise BagError(f'{option} {path} and {other} {other_path} overlap; give '
+                               f'separate paths')
+        missing = missing_parents(path)
+        existing = (missing[-1] if missing else path.absolute()).parent
+        if not existing.is_dir():
+            raise BagError(f'{option}: {existing} is not a directory')
+        if not os.access(existing, os.W_OK | os.X_OK):
+            raise BagError(f'{option}: cannot write in {existing}')
+
+
+def _write_csv(result: ReplayResult, target: Path) -> None:
+    """Write the CSV to a scratch file renamed into place, with a plain open()'s mode."""
+    system = result.system
+    header = ['stamp_ns', *system.model.state_names,
+              *(f'innovation_{name}' for name in system.model.output_names)]
+    directory = target.parent if str(target.parent) else Path('.')
+    while True:  # like tempfile.mkstemp, but created 0666 & ~umask, not 0600
+        scratch = directory / f'.{target.name}.{os.urandom(6).hex()}'
+        try:
+            handle = os.open(scratch, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+            break
+        except FileExistsError:
+            continue
+    try:
+        with os.fdopen(handle, 'w', encoding='utf-8') as stream:
+            stream.write(','.join(header) + '\n')
+            values = np.column_stack([result.estimates, result.innovations])
+            for stamp, row in zip(result.stamps_ns.tolist(), values.tolist()):
+                stream.write(f'{stamp},' + ','.join(map(repr, row)) + '\n')
+        os.replace(scratch, target)
+    finally:
+        if os.path.exists(scratch):
+            os.unlink(scratch)
 
 
 def write_replay(result: ReplayResult, bag: Optional[str] = None, csv: Optional[str] = None,
@@ -129,33 +305,59 @@ def write_replay(result: ReplayResult, bag: Optional[str] = None, csv: Optional[
     Write ``x_hat`` (and the innovation) to a new bag and/or a CSV file.
 
     The bag's log times are the measurement stamps; the CSV has ``stamp_ns`` and one column
-    per state (then ``innovation_<output>``), written to a temporary file renamed into place.
+    per state (then ``innovation_<output>``). Both paths are checked first
+    (:func:`check_outputs`), each is written to a temporary name renamed into place, and
+    when the second fails the first is removed: an error leaves nothing behind. Files get
+    the permissions a plain ``open()`` gives (the umask applies).
+
+    Raises
+    ------
+    observer_ros.bags.storage.BagError
+        An output that cannot be written, or an unknown storage.
+
     """
+    check_outputs(bag, csv)
+    if storage not in STORAGES:
+        raise BagError(f'storage: expected one of {", ".join(STORAGES)}, got {storage!r}')
     system = result.system
     params = system.parameters
-    if bag is not None:
-        topics = [TopicToWrite('/x_hat', params['topics.x_hat.type'],
-                               params['topics.x_hat.field'], system.model.state_names,
-                               result.stamps_ns, result.stamps_ns, result.estimates)]
-        if innovation:
-            topics.append(TopicToWrite(
-                '/innovation', params['topics.innovation.type'],
-                params['topics.innovation.field'], system.model.output_names,
-                result.stamps_ns, result.stamps_ns, result.innovations))
-        write_bag(bag, topics, storage)
-    if csv is not None:
-        header = ['stamp_ns', *system.model.state_names,
-                  *(f'innovation_{name}' for name in system.model.output_names)]
-        target = Path(csv)
-        handle, scratch = tempfile.mkstemp(prefix=f'.{target.name}.',
-                                           dir=target.parent if str(target.parent) else '.')
+    written, made = [], made_directories(bag, csv)
+    try:
+        if bag is not None:
+            topics = [TopicToWrite('/x_hat', params['topics.x_hat.type'],
+                                   params['topics.x_hat.field'], system.model.state_names,
+                                   result.stamps_ns, result.stamps_ns, result.estimates)]
+            if innovation:
+                topics.append(TopicToWrite(
+                    '/innovation', params['topics.innovation.type'],
+                    params['topics.innovation.field'], system.model.output_names,
+                    result.stamps_ns, result.stamps_ns, result.innovations))
+            write_bag(bag, topics, storage)
+            written.append(Path(bag))
+        if csv is not None:
+            Path(csv).absolute().parent.mkdir(parents=True, exist_ok=True)
+            _write_csv(result, Path(csv))
+    except BaseException:
+        remove_outputs(written, made)
+        raise
+
+
+def made_directories(*paths) -> list:
+    """Return the directories that writing ``paths`` creates, deepest first."""
+    missing = {parent for path in paths if path is not None
+               for parent in missing_parents(Path(path))}
+    return sorted(missing, key=lambda directory: len(directory.parts), reverse=True)
+
+
+def remove_outputs(written, directories=()) -> None:
+    """Remove written outputs (files or bag directories), then emptied ``directories``."""
+    for path in written:
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path, ignore_errors=True)
+        elif os.path.lexists(path):
+            path.unlink()
+    for directory in directories:  # deepest first; only what is left empty
         try:
-            with os.fdopen(handle, 'w', encoding='utf-8') as stream:
-                stream.write(','.join(header) + '\n')
-                values = np.column_stack([result.estimates, result.innovations])
-                for stamp, row in zip(result.stamps_ns.tolist(), values.tolist()):
-                    stream.write(f'{stamp},' + ','.join(map(repr, row)) + '\n')
-            os.replace(scratch, target)
-        finally:
-            if os.path.exists(scratch):
-                os.unlink(scratch)
+            directory.rmdir()
+        except OSError:
+            continue

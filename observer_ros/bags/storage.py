@@ -27,7 +27,7 @@ place when complete, so a failed write never leaves a bag that looks valid.
 
 from dataclasses import dataclass
 import os
-from pathlib import Path
+from pathlib import Path, PurePath
 import shutil
 import tempfile
 from typing import Iterator, Optional, Sequence, Tuple
@@ -67,44 +67,141 @@ class TopicToWrite:
 
 
 def absolute_topic(topic: str) -> str:
-    """Return ``topic`` taken from the root, as bags record names (``y`` is ``/y``)."""
+    """
+    Return ``topic`` taken from the root: ``y``, ``/y`` and a recorded ``y`` are one topic.
+
+    The one rule for topic names: applied to what is asked (``--y-topic y``) and to the
+    names a bag records (rosbag2's own test bags hold ``AAA``, ``a_empty``), so either
+    spelling finds the topic.
+    """
     return topic if topic.startswith('/') else '/' + topic
 
 
+def message_type(msgtype: str) -> str:
+    """Return ``pkg/msg/Name`` for a recorded message type (older bags write ``pkg/Name``)."""
+    package, _, name = msgtype.rpartition('/')
+    return f'{package}/msg/{name}' if package and '/' not in package else msgtype
+
+
 def _listing(reader) -> str:
-    """List the topics of an open bag with their types, for error messages."""
-    present = ', '.join(f'{c.topic} ({c.msgtype})' for c in reader.connections)
-    return present or 'no topics (it is empty)'
+    """List the topics of an open bag as recorded, with their types, for error messages."""
+    present = dict.fromkeys(f'{c.topic} ({c.msgtype})' for c in reader.connections)
+    return ', '.join(present) or 'no topics (it is empty)'
+
+
+#: Suffixes of the rosbag2 storage files ``rosbags`` opens on their own.
+STORAGE_SUFFIXES = ('.mcap', '.db3')
+
+
+def _metadata(directory: Path) -> Optional[dict]:
+    """Return the ``rosbag2_bagfile_information`` of ``directory``, None when unparsable."""
+    import yaml
+    try:
+        with open(directory / 'metadata.yaml', encoding='utf-8') as stream:
+            info = yaml.safe_load(stream)['rosbag2_bagfile_information']
+    except (OSError, yaml.YAMLError, TypeError, KeyError):
+        return None  # rosbags says what is wrong with it
+    return info if isinstance(info, dict) else None
+
+
+def _storage_files(directory: Path) -> list:
+    return sorted(p for p in directory.iterdir()
+                  if p.suffix in STORAGE_SUFFIXES and p.is_file())
+
+
+def _target(path: Path) -> Path:
+    """
+    Return what ``rosbags`` opens for ``path``: the bag directory or one storage file.
+
+    Besides a bag directory, a storage file (``.mcap``, ``.db3``) and a directory holding
+    one storage file without ``metadata.yaml`` are read on their own, and so is a bag whose
+    metadata is version 1 (``topic_and_type``, which ``rosbags`` does not read) with one
+    file. Anything else is a BagError saying what the layout is and what to do.
+    """
+    if not path.exists():
+        raise BagError(f'{path}: not a readable rosbag2 bag (no such file or directory)')
+    if path.is_file():
+        if path.name == 'metadata.yaml':
+            return _target(path.parent)
+        if path.suffix in STORAGE_SUFFIXES:
+            return path
+        if path.suffix == '.zstd':
+            raise BagError(f'{path}: a zstd-compressed storage file; give the bag directory '
+                           f'that holds it with its metadata.yaml, or decompress it first')
+        raise BagError(f'{path}: not a readable rosbag2 bag (expected a bag directory or an '
+                       f'.mcap or .db3 storage file)')
+    if not (path / 'metadata.yaml').exists():
+        files = _storage_files(path)
+        if len(files) == 1:
+            return files[0]
+        if not files:
+            raise BagError(f'{path}: not a readable rosbag2 bag (no metadata.yaml and no '
+                           f'.mcap or .db3 file in it)')
+        raise BagError(f'{path}: no metadata.yaml and {len(files)} storage files '
+                       f'({", ".join(f.name for f in files)}); rebuild the metadata with '
+                       f'"ros2 bag reindex {path}", or give one of the files')
+    info = _metadata(path)
+    if info is None:
+        return path
+    files = [path / PurePath(str(name)).name for name in info.get('relative_file_paths') or ()]
+    missing = [f.name for f in files if not f.exists()]
+    if missing:
+        raise BagError(f'{path}: its metadata.yaml lists {", ".join(missing)}, not found in '
+                       f'the bag directory; copy the storage files next to metadata.yaml')
+    if info.get('version') == 1:
+        if len(files) == 1:
+            return files[0]
+        raise BagError(f'{path}: metadata version 1 with {len(files)} storage files, which '
+                       f'rosbags cannot read; rebuild the metadata with '
+                       f'"ros2 bag reindex {path}"')
+    return path
 
 
 def _reader(path):
     from rosbags.rosbag2 import Reader
+    target = _target(Path(path))
     try:
-        reader = Reader(Path(path))
+        reader = Reader(target)
         reader.open()
     except Exception as e:  # rosbags raises several types for unreadable bags
-        raise BagError(f'{path}: not a readable rosbag2 bag ({e})') from e
+        what = '' if target == Path(path) else f' ({target.name} alone)'
+        raise BagError(f'{path}: not a readable rosbag2 bag{what} ({e})') from e
     return reader
 
 
-def _mcap_files(reader, path) -> Optional[list]:
+def _stored_connections(reader) -> list:
+    """
+    Return the connections as the storage files record them.
+
+    ``rosbags`` yields a message only for a connection whose QoS profiles equal the
+    storage file's; real bags (rosbag2's talker, its converted bags) record other QoS in
+    ``metadata.yaml`` than in the file, and would give no messages. Asking with the
+    files' own connections gives every message; types and counts still come from the
+    metadata (:attr:`reader.connections`).
+    """
+    storages = getattr(getattr(reader, 'storage', None), 'storages', None)
+    if storages is None:  # a storage file opened alone: its connections are the file's
+        return list(reader.connections)
+    return [connection for storage in storages for connection in storage.connections]
+
+
+def _mcap_files(reader) -> Optional[list]:
     """Return the bag's MCAP files when :mod:`observer_ros.bags.mcap` reads them, else None."""
-    path = Path(path)
+    path = Path(reader.path)
     if path.is_file():
         return [path] if path.suffix == '.mcap' else None
-    if reader.compression_mode:  # whole-file compression: rosbags decompresses
+    if reader.compression_mode:  # whole-file or per-message compression: rosbags decompresses
         return None
-    import yaml
-    with open(path / 'metadata.yaml', encoding='utf-8') as stream:
-        info = yaml.safe_load(stream)['rosbag2_bagfile_information']
-    names = info.get('relative_file_paths')
-    if info.get('storage_identifier') != 'mcap' or not names:
+    info = _metadata(path)
+    names = info.get('relative_file_paths') if info else None
+    if not names or info.get('storage_identifier') != 'mcap':
         return None
-    return [path / name for name in names]
+    # As rosbag2 and rosbags read them: older bags prefix the bag directory's name.
+    return [path / PurePath(str(name)).name for name in names]
 
 
 def bag_topics(path) -> dict:
-    """Return ``{topic: (message type, message count)}`` of a bag."""
+    """Return ``{topic: (message type, message count)}`` of a bag, names as recorded."""
     reader = _reader(path)
     try:
         return {name: (info.msgtype, info.msgcount) for name, info in reader.topics.items()}
@@ -116,19 +213,26 @@ class Playback:
     """
     A bag's messages in log-time order, raw, for publishing them again.
 
+    Topic names are taken from the root (:func:`absolute_topic`) on both sides: ``AAA``
+    recorded without a slash is played, selected and excluded as ``/AAA`` or ``AAA``.
+
     Parameters
     ----------
     path : path-like
-        The bag directory.
+        The bag directory (or its storage file).
     topics : sequence of str, optional
         Topics to play (all when None); each must be in the bag.
     exclude : sequence of str
-        Topics left out.
+        Topics left out; each must be in the bag (a misspelt name is an error, not a
+        silently played topic).
 
     Attributes
     ----------
     topics : dict
-        ``{topic: (message type, message count in the metadata)}`` of the played topics.
+        ``{topic: (message type, message count in the metadata)}`` of the played topics,
+        names from the root, types ``pkg/msg/Name``.
+    recorded : dict
+        ``{topic: name as the bag records it}`` of the played topics.
 
     Raises
     ------
@@ -142,37 +246,62 @@ class Playback:
                  exclude: Sequence[str] = ()) -> None:
         self.path = path
         self._reader = _reader(path)
-        present = {c.topic: c.msgtype for c in self._reader.connections}
+        try:
+            self._select(topics, exclude)
+        except BagError:
+            self._reader.close()
+            raise
+
+    def _select(self, topics: Optional[Sequence[str]], exclude: Sequence[str]) -> None:
+        path, reader = self.path, self._reader
+        present: dict = {}
+        for connection in reader.connections:
+            present.setdefault(absolute_topic(connection.topic), connection.topic)
+        missing = [t for t in topics or () if absolute_topic(t) not in present]
+        if missing:
+            raise BagError(f'{path}: no topic {", ".join(missing)}; the bag has '
+                           f'{_listing(reader)}')
+        unknown = [t for t in exclude if absolute_topic(t) not in present]
+        if unknown:
+            raise BagError(f'--exclude: {path} has no topic {", ".join(unknown)}; the bag has '
+                           f'{_listing(reader)}')
         wanted = set(present) if topics is None else {absolute_topic(t) for t in topics}
         wanted -= {absolute_topic(t) for t in exclude}
-        missing = sorted(wanted - set(present))
-        if missing or not wanted:
-            listing = _listing(self._reader)
-            self._reader.close()
-            raise BagError(f'{path}: ' + (f'no topic {", ".join(missing)}; ' if missing else
-                                          'nothing to play; ') + f'the bag has {listing}')
-        self._connections = [c for c in self._reader.connections if c.topic in wanted]
+        if not wanted:
+            raise BagError(f'{path}: nothing to play; the bag has {_listing(reader)}')
+        self.recorded = {topic: present[topic] for topic in sorted(wanted)}
         self.topics = {}
-        for connection in self._connections:
-            msgtype, count = self.topics.get(connection.topic, (connection.msgtype, 0))
-            if msgtype != connection.msgtype:
-                self._reader.close()
-                raise BagError(f'{path}: topic {connection.topic} holds both {msgtype} and '
-                               f'{connection.msgtype}; play it with --exclude')
-            self.topics[connection.topic] = (msgtype, count + connection.msgcount)
+        for connection in reader.connections:
+            topic = absolute_topic(connection.topic)
+            if topic not in wanted:
+                continue
+            msgtype = message_type(connection.msgtype)
+            known, count = self.topics.get(topic, (msgtype, 0))
+            if known != msgtype:
+                raise BagError(f'{path}: topic {connection.topic} holds both {known} and '
+                               f'{msgtype}; play it with --exclude {connection.topic}')
+            self.topics[topic] = (msgtype, count + connection.msgcount)
+        self._connections = [c for c in _stored_connections(reader)
+                             if absolute_topic(c.topic) in wanted]
+
+    def listing(self) -> str:
+        """Return the played topics as the bag records them, for messages."""
+        return ', '.join(self.recorded.values())
 
     def messages(self) -> Iterator[Tuple[str, int, bytes]]:
-        """Yield ``(topic, log_time_ns, cdr_bytes)`` in log-time order."""
+        """Yield ``(topic, log_time_ns, cdr_bytes)`` in log-time order, topics from the root."""
+        if not self._connections:
+            return
         try:
             for connection, log_time, raw in self._reader.messages(
                     connections=self._connections):
-                yield connection.topic, log_time, bytes(raw)
+                yield absolute_topic(connection.topic), log_time, bytes(raw)
         except Exception as e:
             raise BagError(f'{self.path}: cannot read the messages ({e})') from e
 
     def check_counts(self, played: dict) -> None:
         """Raise BagError when a topic gave fewer messages than the metadata counts."""
-        short = [f'{topic}: {played.get(topic, 0)} of {count}'
+        short = [f'{self.recorded[topic]}: {played.get(topic, 0)} of {count}'
                  for topic, (_, count) in sorted(self.topics.items())
                  if count and played.get(topic, 0) != count]
         if short:
@@ -236,25 +365,28 @@ def read_topics(path, requests: Sequence[TopicRequest]) -> list:
     try:
         by_topic = {}
         for request in requests:
-            connections = [c for c in reader.connections if c.topic == request.topic]
+            connections = [c for c in reader.connections
+                           if absolute_topic(c.topic) == request.topic]
             if not connections:
                 raise BagError(f'{path}: no topic {request.topic}; the bag has '
                                f'{_listing(reader)}')
-            types = {c.msgtype for c in connections}
+            types = {message_type(c.msgtype) for c in connections}
             expected = MESSAGE_TYPES[request.kind]
             if types != {expected}:
-                raise BagError(f'{path}: topic {request.topic} holds '
+                raise BagError(f'{path}: topic {connections[0].topic} holds '
                                f'{", ".join(sorted(types))}, expected {expected} (set '
                                f'topics.<topic>.type to match)')
             by_topic[request.topic] = connections
-        files = _mcap_files(reader, path)
+        files = _mcap_files(reader)
         if files is not None:
-            collected = read_mcap_topics(files, list(by_topic))
+            collected = read_mcap_topics(files, list(by_topic), key=absolute_topic)
         else:
-            wanted = [c for connections in by_topic.values() for c in connections]
+            wanted = [c for c in _stored_connections(reader)
+                      if absolute_topic(c.topic) in by_topic]
             collected = {topic: ([], []) for topic in by_topic}
-            for connection, log_time, raw in reader.messages(connections=wanted):
-                times, raws = collected[connection.topic]
+            messages = reader.messages(connections=wanted) if wanted else ()
+            for connection, log_time, raw in messages:
+                times, raws = collected[absolute_topic(connection.topic)]
                 times.append(log_time)
                 raws.append(raw)
     except BagError:
@@ -270,7 +402,7 @@ def read_topics(path, requests: Sequence[TopicRequest]) -> list:
 
 def _decoded(path, request: TopicRequest, connections, log_times: list,
              raws: list) -> TopicData:
-    topic, names = request.topic, request.names
+    topic, names = connections[0].topic, request.names  # as the bag records it
     counted = sum(c.msgcount for c in connections)
     if not raws:
         raise BagError(f'{path}: topic {topic} has no messages' + (

@@ -50,7 +50,7 @@ from rclpy.serialization import deserialize_message
 from rclpy.utilities import remove_ros_args
 from rosgraph_msgs.msg import Clock
 
-from observer_ros.bags.storage import absolute_topic, BagError, Playback
+from observer_ros.bags.storage import absolute_topic, BagError, message_type, Playback
 from observer_ros.ros.messages import stamp_to_ns
 from observer_ros.ros.parameters import volatile_qos
 
@@ -73,13 +73,47 @@ RESPONSE_QOS = volatile_qos(1000, reliable=False)
 
 
 def message_class(msgtype: str, topic: str):
-    """Return the Python class of ``pkg/msg/Name``, or raise BagError naming the topic."""
-    package, _, name = msgtype.partition('/msg/')
+    """
+    Return the Python class of ``pkg/msg/Name`` (or ``pkg/Name``, ``pkg/srv/Name_Event``).
+
+    Raises
+    ------
+    BagError
+        The type is not installed, naming the topic.
+
+    """
+    package, _, name = message_type(msgtype).rpartition('/')
     try:
-        return getattr(importlib.import_module(f'{package}.msg'), name)
-    except (ImportError, AttributeError) as e:
+        return getattr(importlib.import_module(package.replace('/', '.')), name)
+    except (ImportError, AttributeError, TypeError, ValueError) as e:
         raise BagError(f'topic {topic}: message type {msgtype} is not installed here; '
                        f'leave it out with --exclude {topic}') from e
+
+
+def message_classes(playback: Playback) -> dict:
+    """
+    Return ``{topic: class}`` of the played topics.
+
+    Raises
+    ------
+    BagError
+        One line naming every topic whose type is not installed, and the ``--exclude``
+        that leaves them out.
+
+    """
+    classes, absent = {}, []
+    for topic, (msgtype, _) in playback.topics.items():
+        try:
+            classes[topic] = message_class(msgtype, topic)
+        except BagError:
+            absent.append(topic)
+    if absent:
+        names = [playback.recorded[topic] for topic in absent]
+        types = ', '.join(f'{name} ({playback.topics[topic][0]})'
+                          for name, topic in zip(names, absent))
+        raise BagError(f'{playback.path}: message types not installed here: {types}; leave '
+                       f'them out with --exclude {" ".join(names)}')
+    return classes
 
 
 def _stamp_ns(message) -> Optional[int]:
@@ -155,7 +189,7 @@ class BagPlayer(Node):
             paced_by = absolute_topic(paced_by)
             if trigger not in playback.topics:
                 raise BagError(f'--trigger: {trigger} is not among the played topics '
-                               f'({", ".join(sorted(playback.topics))})')
+                               f'({playback.listing()})')
             if paced_by in playback.topics:
                 raise BagError(f'--paced-by: {paced_by} is also played from the bag; leave '
                                f'it out with --exclude {paced_by}')
@@ -165,9 +199,8 @@ class BagPlayer(Node):
         unknown = sorted(set(wait_for) - set(playback.topics))
         if unknown:
             raise BagError(f'--wait-for: {", ".join(unknown)} not among the played topics '
-                           f'({", ".join(sorted(playback.topics))})')
-        classes = {topic: message_class(msgtype, topic)
-                   for topic, (msgtype, _) in playback.topics.items()}
+                           f'({playback.listing()})')
+        classes = message_classes(playback)
         kwargs.setdefault('start_parameter_services', False)
         super().__init__(node_name, **kwargs)
         self.playback = playback

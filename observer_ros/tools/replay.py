@@ -16,26 +16,33 @@
 ``replay``: run the configured observer over a recorded bag, offline, and report.
 
 ``replay BAG PARAMS [--output BAG] [--csv FILE] [--report DIR]`` reads ``y`` and ``u``
-with their recorded stamps, writes ``x_hat`` and the innovation, and, when the bag holds
-``x_true`` (or ``--truth TOPIC``), prints the per-state error table and writes a PNG.
-Errors (bad bag, bad parameter file) print one line and exit with status 2.
+with their recorded stamps, writes ``x_hat`` and the innovation, and with ``--report``
+compares them with ``x_true`` (or ``--truth TOPIC``): the per-state error table and a PNG.
+Everything is checked (parameter file, output paths, topics, time bases, the truth) before
+anything is written; an error prints one line, exits with status 2 and leaves nothing
+behind.
 """
 
 import argparse
+from pathlib import Path
 import sys
 import time
 
-from observer_ros.bags.replay import replay_bag, write_replay
-from observer_ros.bags.storage import bag_topics, BagError, STORAGES
+from observer_ros.bags.replay import (
+    check_outputs, load_system, made_directories, remove_outputs, replay_bag, write_replay)
+from observer_ros.bags.storage import BagError, STORAGES
 from observer_ros.core.errors import ConfigError, DesignError
+from observer_ros.core.evaluation import align
 from observer_ros.core.plots import write_run_report
+
+REPORT_NAME = 'replay'
 
 
 def main(args=None) -> int:
     """Entry point of ``replay`` (also ``ros2 run observer_ros replay``)."""
     parser = argparse.ArgumentParser(
         prog='replay', description='Run the configured observer over a rosbag2 bag offline.')
-    parser.add_argument('bag', help='rosbag2 bag directory (MCAP or sqlite3)')
+    parser.add_argument('bag', help='rosbag2 bag directory (MCAP or sqlite3), or a storage file')
     parser.add_argument('params', help='parameter file (/**: ros__parameters:)')
     parser.add_argument('--y-topic', default='y', help='measurement topic in the bag')
     parser.add_argument('--u-topic', default='u', help='input topic in the bag')
@@ -45,25 +52,49 @@ def main(args=None) -> int:
     parser.add_argument('--report', metavar='DIR',
                         help='error table and DIR/replay.png against the true state')
     parser.add_argument('--truth', default='x_true', help='true-state topic for --report')
+    parser.add_argument('--use-log-time', action='store_true',
+                        help='stamp y and u (and the truth) with their log times instead of '
+                        'their header stamps (streams stamped in different time bases)')
     options = parser.parse_args(args)
     try:
+        # Everything is checked (parameters, outputs, topics, truth) before anything is written.
+        system = load_system(options.params)
+        check_outputs(options.output, options.csv, options.report)
         started = time.perf_counter()
-        result = replay_bag(options.bag, options.params, options.y_topic, options.u_topic)
+        result = replay_bag(options.bag, system, options.y_topic, options.u_topic,
+                            options.use_log_time)
         elapsed = time.perf_counter() - started
+        truth = None
+        if options.report:
+            try:
+                truth = result.truth(options.truth)
+            except BagError as e:
+                raise BagError(f'--report needs the true state: {e}') from e
+            if not len(align(truth.stamps_ns, truth.values, result.stamps_ns,
+                             result.estimates)[0]):
+                raise BagError(f'{options.bag}: --report: {options.truth} and the estimates '
+                               f'share no stamp; nothing to compare')
+    except (BagError, ConfigError, DesignError, ValueError) as e:
+        print(f'replay: error: {e}', file=sys.stderr)
+        return 2
+    made = made_directories(options.output, options.csv,
+                            options.report and Path(options.report) / REPORT_NAME)
+    plot = options.report and Path(options.report) / f'{REPORT_NAME}.png'
+    written = [] if plot is None or plot.exists() else [plot]
+    try:
         write_replay(result, options.output, options.csv, options.storage)
+        written += [Path(p) for p in (options.output, options.csv) if p is not None]
         counters = ', '.join(f'{key} {value}' for key, value in sorted(result.counters.items()))
         print(f'replayed {len(result.outputs.values)} measurements into '
               f'{len(result.stamps_ns)} estimates in {elapsed:.3f} s '
               f'({len(result.outputs.values) / max(elapsed, 1e-9):,.0f} samples/s); {counters}')
-        if options.report:
-            topic = '/' + options.truth.lstrip('/')
-            if topic not in bag_topics(options.bag):
-                raise BagError(f'{options.bag}: --report needs {topic} with the true state')
-            truth = result.truth(options.truth)
-            print(write_run_report(options.report, 'replay', result.system, truth.stamps_ns,
-                                   truth.values, result.stamps_ns, result.estimates,
-                                   title=f'{result.system.observer.kind} observer, {options.bag}'))
-    except (BagError, ConfigError, DesignError, ValueError) as e:
+        if truth is not None:
+            print(write_run_report(
+                options.report, REPORT_NAME, result.system, truth.stamps_ns, truth.values,
+                result.stamps_ns, result.estimates,
+                title=f'{result.system.observer.kind} observer, {options.bag}'))
+    except (BagError, ConfigError, DesignError, ValueError, OSError) as e:
+        remove_outputs(written, made)
         print(f'replay: error: {e}', file=sys.stderr)
         return 2
     return 0
