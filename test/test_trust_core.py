@@ -280,3 +280,15 @@ def test_only_the_first_waiting_measurement_stops_waiting_on_flush():
     assert first[1] == 3
     assert len(stream.flush(first_only=True)) == 1
     assert stream.waiting()[1] == 4 and stream.waiting()[0] != first[0]
+
+
+def test_every_tool_refuses_an_unknown_parameter_the_same_way(tmp_path):
+    from observer_ros.bags.replay import replay_bag
+    from observer_ros.tools.design_observer import main as design_main
+    path = tmp_path / 'typo.yaml'
+    path.write_text((CONFIG_DIR / 'seed003_full_order.yaml').read_text().replace(
+        'poles:', 'polse:', 1))
+    # before: replay_bag ignored the misspelt key and replayed without an observer change
+    with pytest.raises(ConfigError, match=r'^observer\.polse: unknown parameter'):
+        replay_bag(tmp_path / 'no_bag_needed', path)
+    assert design_main([str(path)]) == 2

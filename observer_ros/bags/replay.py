@@ -38,7 +38,6 @@ from observer_ros.bags.storage import (
     write_bag)
 from observer_ros.core.config import load_parameter_file, System, validate_parameters
 from observer_ros.core.evaluation import align
-from observer_ros.core.streaming import StreamEstimator
 
 NANOSECONDS = 1_000_000_000
 
@@ -167,11 +166,12 @@ def load_system(parameters: Union[str, os.PathLike, System]) -> System:
     Raises
     ------
     observer_ros.core.errors.ConfigError
-        A bad parameter file, or one without an observer, naming the parameter.
+        A bad parameter file, or one without an observer, naming the parameter; an
+        unknown parameter is an error, as in ``design_observer``.
 
     """
     system = parameters if isinstance(parameters, System) else validate_parameters(
-        load_parameter_file(str(parameters)))
+        load_parameter_file(str(parameters)), strict=True)
     if system.observer is None:
         from observer_ros.core.errors import ConfigError
         raise ConfigError('observer.poles', 'replay needs an observer: observer.poles, '
@@ -219,7 +219,8 @@ def replay_bag(bag: Union[str, os.PathLike], parameters: Union[str, os.PathLike,
     else:
         check_time_bases(outputs, inputs, max_gap_ns, str(bag), absolute_topic(y_topic),
                          absolute_topic(u_topic))
-    stream = StreamEstimator(system.make_estimator(), max_gap_ns, input_stamped=input_stamped)
+    stream = system.make_stream()
+    stream.input_stamped = input_stamped
     result = stream.replay(inputs.stamps_ns, inputs.values, outputs.stamps_ns, outputs.values,
                            inputs.log_times_ns, outputs.log_times_ns)
     return ReplayResult(system, str(bag), result.stamps_ns, result.estimates,

@@ -239,10 +239,20 @@ class StreamEstimator:
         if index < 0:
             if self._input_stamps:
                 self.counters['late_input'] += 1
+                if self._input_stamps[0] - previous > self.max_gap_ns:
+                    self._time_base_event(self._input_stamps[0] - previous)
             else:
                 self.counters['no_input'] += 1
             return self._zero_input
+        if previous - self._input_stamps[index] > self.max_gap_ns:
+            self._time_base_event(self._input_stamps[index] - previous)
         return self._inputs[index]
+
+    def _time_base_event(self, offset_ns: int) -> None:
+        self.events.append(('time_base', f'the inputs are stamped {offset_ns / 1e9:+.3f} s from '
+                            f'the measurements, more than the gap limit: are y and u stamped '
+                            f'in different time bases (simulation time and wall clock, or an '
+                            f'unstamped u stamped on arrival)?'))
 
     def _release(self, force: bool, first_only: bool = False) -> list:
         produced = []
