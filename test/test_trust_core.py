@@ -238,8 +238,8 @@ def test_batch_replay_applies_the_same_value_and_clock_rules_as_the_stream(stead
     outputs[9] = math.nan                      # malformed
     stamps[11] += 5 * SECOND_NS                # far ahead of its arrival
     inputs[13] = 1e12
-    kwargs = dict(clock_tolerance_ns=SECOND_NS // 2,
-                  limits=ValueLimits(measurement=1e9, input=1e9))
+    kwargs = {'clock_tolerance_ns': SECOND_NS // 2,
+              'limits': ValueLimits(measurement=1e9, input=1e9)}
     live, _ = double_integrator_stream(**kwargs)
     out = []
     for k in range(len(rows)):

@@ -129,7 +129,7 @@ class StepDesign:
 
 def place_sampled(a: np.ndarray, c: np.ndarray, poles: np.ndarray, method: str):
     """
-    Verified observer gain for one sampled interval (:func:`place_observer`).
+    Return a verified observer gain for one sampled interval (:func:`place_observer`).
 
     Sampling can make distinct continuous poles coincide (fast poles all map to
     ``exp(lambda dt) = 0``), which a method such as ``'place'`` refuses; the interval is
