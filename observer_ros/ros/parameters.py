@@ -194,6 +194,7 @@ class ConfiguredNode(Node):
             problem = type_problem(spec, parameter)
             if problem:
                 self._pending = None
+                self._restore_descriptors(parameters)
                 return SetParametersResult(successful=False, reason=problem)
             merged[parameter.name] = parameter.value
             touched = True
@@ -206,6 +207,16 @@ class ConfiguredNode(Node):
             self._pending = None
             return SetParametersResult(successful=False, reason=str(e))
         return SetParametersResult(successful=True)
+
+    def _restore_descriptors(self, parameters) -> None:
+        # rclpy retypes a dynamically typed parameter's descriptor to the requested type
+        # before asking this node; a refused request must leave the schema type shown.
+        for parameter in parameters:
+            spec = self.specs.get(parameter.name)
+            if spec is not None:
+                self.set_descriptor(spec.name, ParameterDescriptor(
+                    description=spec.description, read_only=not spec.dynamic,
+                    dynamic_typing=True, additional_constraints=self._constraints(spec)))
 
     def _apply_parameters(self, parameters) -> None:
         if self._pending is None:
