@@ -292,3 +292,12 @@ def test_every_tool_refuses_an_unknown_parameter_the_same_way(tmp_path):
     with pytest.raises(ConfigError, match=r'^observer\.polse: unknown parameter'):
         replay_bag(tmp_path / 'no_bag_needed', path)
     assert design_main([str(path)]) == 2
+
+
+@pytest.mark.parametrize('vector,limit,inside', [
+    ([2e300, 0.0], 1e300, False), ([math.inf, 0.0], 1e300, False),  # limit**2 overflows
+    ([1e300, -1e300], 1e300, True), ([math.nan], 1e300, False), ([1e200], 1e160, False),
+    ([3.0, 4.0], 4.0, True), ([3.0, 4.5], 4.0, False), ([], 1.0, True)])
+def test_the_limit_check_is_exact_for_every_limit(vector, limit, inside):
+    from observer_ros.core.streaming import within_limit
+    assert within_limit(np.array(vector, dtype=float), limit) is inside

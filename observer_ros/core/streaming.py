@@ -62,7 +62,7 @@ class ValueLimits:
 def within_limit(vector: np.ndarray, limit: float) -> bool:
     """Whether every entry of ``vector`` is finite and of magnitude at most ``limit``."""
     square = vector @ vector  # one dot product decides the common case
-    if square <= limit * limit:
+    if square < math.inf and square <= limit * limit:  # limit * limit may overflow to inf
         return True
     return bool(np.isfinite(vector).all() and np.abs(vector).max() <= limit)
 
