@@ -29,8 +29,10 @@ from observer_ros.bags.replay import replay_bag, write_replay
 from observer_ros.bags.storage import bag_topics, BagError, STORAGES
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.plots import write_run_report
+from observer_ros.signals import stops_on_signal
 
 
+@stops_on_signal('replay')
 def main(args=None) -> int:
     """Entry point of ``replay`` (also ``ros2 run observer_ros replay``)."""
     parser = argparse.ArgumentParser(
