@@ -12,16 +12,20 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""Shared fixtures: an isolated ROS domain per test run and the shipped configs."""
+"""Shared fixtures: an isolated ROS domain per test run, the shipped configs, the scripts."""
 
 import ast
 import os
 from pathlib import Path
 import random
+import shutil
+import sys
 
 import numpy as np
 import pytest
 import scipy.optimize
+
+import observer_ros
 
 REPOSITORY = Path(__file__).resolve().parents[1]
 CONFIG_DIR = REPOSITORY / 'config'
@@ -59,3 +63,46 @@ def console_scripts() -> list:
                 if isinstance(key, ast.Constant) and key.value == 'console_scripts':
                     return [ast.literal_eval(item).split('=')[0].strip() for item in value.elts]
     raise AssertionError('no console_scripts in setup.py')
+
+
+#: Where ``ros2 run`` finds the console scripts: ``<prefix>/lib/<package>`` (setup.cfg).
+PACKAGE = 'observer_ros'
+
+
+def _script_directories() -> list:
+    directories = []
+    for variable in ('AMENT_PREFIX_PATH', 'COLCON_PREFIX_PATH'):
+        for prefix in filter(None, os.environ.get(variable, '').split(os.pathsep)):
+            # COLCON_PREFIX_PATH names install roots; an isolated install nests the package.
+            directories += [Path(prefix) / 'lib' / PACKAGE,
+                            Path(prefix) / PACKAGE / 'lib' / PACKAGE]
+    package = Path(observer_ros.__file__).resolve().parent
+    if package.parent.name in ('site-packages', 'dist-packages'):
+        # <prefix>/lib/pythonX.Y/site-packages/observer_ros
+        prefix = package.parents[3]
+        directories += [prefix / 'lib' / PACKAGE, prefix / 'bin']
+    directories.append(Path(sys.executable).parent)
+    return directories
+
+
+def console_script(name: str) -> str:
+    """
+    Return the path of the installed console script ``name``.
+
+    A pip or venv set-up puts it on PATH (or next to the interpreter); an ament_python
+    install (``colcon build``, then ``colcon test``) puts it in ``<prefix>/lib/observer_ros``
+    of a prefix listed in AMENT_PREFIX_PATH or COLCON_PREFIX_PATH, or of the prefix that
+    holds the imported package. Fails the test with what was searched when it is nowhere.
+    """
+    found = shutil.which(name)
+    if found:
+        return found
+    directories = _script_directories()
+    for directory in directories:
+        path = directory / name
+        if path.is_file() and os.access(path, os.X_OK):
+            return str(path)
+    pytest.fail(f'console script {name!r} not found: not on PATH and not in '
+                f'{", ".join(map(str, dict.fromkeys(directories)))}; install the package '
+                f'(pip install -e . or colcon build, then source install/setup.bash)',
+                pytrace=False)

@@ -16,7 +16,6 @@
 
 from contextlib import contextmanager
 import os
-import shutil
 import signal
 import subprocess
 import time
@@ -28,7 +27,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
-from conftest import CONFIG_DIR
+from conftest import CONFIG_DIR, console_script
 from observer_ros.nodes.closed_loop import ClosedLoop
 from observer_ros.ros.parameters import make_executor
 
@@ -79,11 +78,9 @@ class NodeProcess:
     """A console-script node in a subprocess, stopped with SIGINT."""
 
     def __init__(self, executable: str, *args: str) -> None:
-        path = shutil.which(executable)
-        assert path, f'{executable} is not on PATH'
         self.process = subprocess.Popen(
-            [path, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-            env=dict(os.environ))
+            [console_script(executable), *args], stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE, text=True, env=dict(os.environ))
 
     def stop(self, timeout: float = 10.0):
         """Interrupt (like Ctrl-C) and return ``(returncode, stdout, stderr)``."""

@@ -24,7 +24,7 @@ from sensor_msgs.msg import JointState
 
 from bag_support import (JOINT_STATE, joint_state, robot_parameters, ROBOT_TOPICS, serialize,
                          TYPESTORE, write_robot_bag)
-from conftest import CONFIG_DIR
+from conftest import CONFIG_DIR, console_script
 from observer_ros.bags.replay import replay_bag
 from observer_ros.bags.storage import BagError, Playback, read_topic
 from observer_ros.nodes.bag_player import message_class
@@ -110,8 +110,8 @@ def test_robot_bag_paced_through_a_remapped_observer(tmp_path):
 
 def run_player(*args, timeout=60):
     """Run ``play_bag`` to completion; return the CompletedProcess."""
-    return subprocess.run(['play_bag', *map(str, args)], capture_output=True, text=True,
-                          timeout=timeout)
+    return subprocess.run([console_script('play_bag'), *map(str, args)], capture_output=True,
+                          text=True, timeout=timeout)
 
 
 def one_error_line(result, *fragments):

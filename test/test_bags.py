@@ -23,7 +23,7 @@ from rosbags.rosbag2 import CompressionFormat, CompressionMode, Reader, StorageP
 
 from bag_support import (float64_array, JOINT_STATE, joint_state, robot_parameters, serialize,
                          TYPESTORE, write_robot_bag)
-from conftest import CONFIG_DIR
+from conftest import CONFIG_DIR, console_script
 from observer_ros.bags.cdr import decode, DecodeError, Encoder, MessageReader, MessageWriter
 from observer_ros.bags.mcap import McapError, read_mcap_topics
 from observer_ros.bags.replay import replay_bag, write_replay
@@ -292,15 +292,16 @@ def test_replay_cli(tmp_path):
     bag = tmp_path / 'robot'
     write_robot_bag(bag, samples=50)
     params = str(robot_parameters(tmp_path))
-    result = subprocess.run(['replay', str(bag), params, '--y-topic', '/joint_states',
+    result = subprocess.run([console_script('replay'), str(bag), params,
+                             '--y-topic', '/joint_states',
                              '--u-topic', '/effort_controller/commands', '--csv',
                              str(tmp_path / 'x_hat.csv'), '--output', str(tmp_path / 'out')],
                             capture_output=True, text=True, timeout=60)
     assert result.returncode == 0, result.stderr
     assert 'replayed 50 measurements into 50 estimates' in result.stdout
     assert (tmp_path / 'x_hat.csv').read_text().count('\n') == 51
-    failed = subprocess.run(['replay', str(bag), params], capture_output=True, text=True,
-                            timeout=60)
+    failed = subprocess.run([console_script('replay'), str(bag), params], capture_output=True,
+                            text=True, timeout=60)
     assert failed.returncode == 2
     lines = failed.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith('replay: error: ') and '/joint_states' in (

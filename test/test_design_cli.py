@@ -16,22 +16,19 @@
 
 import json
 import re
-import shutil
 import subprocess
 
 import numpy as np
 import pytest
 
-from conftest import CONFIG_DIR
+from conftest import CONFIG_DIR, console_script
 from observer_ros.core.config import load_parameter_file, PARAMETERS, validate_parameters
 from observer_ros.core.errors import ConfigError
 
 
 def run_cli(*args):
-    executable = shutil.which('design_observer')
-    assert executable, 'the design_observer console script is not on PATH'
-    return subprocess.run([executable, *map(str, args)], capture_output=True, text=True,
-                          timeout=60)
+    return subprocess.run([console_script('design_observer'), *map(str, args)],
+                          capture_output=True, text=True, timeout=60)
 
 
 def design_json(path):

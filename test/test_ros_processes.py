@@ -25,7 +25,7 @@ import time
 import numpy as np
 import pytest
 
-from conftest import CONFIG_DIR, REPOSITORY
+from conftest import CONFIG_DIR, console_script, REPOSITORY
 from observer_ros.core.config import load_parameter_file, validate_parameters
 from observer_ros.core.evaluation import align, decay_rate, settling_time
 from observer_ros.ros.parameters import EXECUTORS
@@ -40,7 +40,7 @@ def test_bad_configuration_exits_2_with_one_line(tmp_path, executable):
     bad = tmp_path / 'bad.yaml'
     bad.write_text((CONFIG_DIR / 'seed003_full_order.yaml').read_text().replace(
         'B: [0.0, 1.0]', 'B: [0.0, 1.0, 2.0]'))
-    result = subprocess.run([executable, '--ros-args', '--params-file', str(bad)],
+    result = subprocess.run([console_script(executable), '--ros-args', '--params-file', str(bad)],
                             capture_output=True, text=True, timeout=60)
     assert result.returncode == 2, result.stderr
     lines = [line for line in result.stderr.splitlines() if line.strip()]
@@ -52,7 +52,7 @@ def test_bad_configuration_exits_2_with_one_line(tmp_path, executable):
 def test_unknown_executor_or_argument_exits_2_naming_it(executable):
     for args, expected in ((['--executor', 'fast'], "argument --executor: invalid choice: 'fast'"),
                            (['--fast'], 'unrecognized arguments: --fast')):
-        result = subprocess.run([executable, *args, '--ros-args', '--params-file',
+        result = subprocess.run([console_script(executable), *args, '--ros-args', '--params-file',
                                  str(CONFIG_DIR / 'seed003_full_order.yaml')],
                                 capture_output=True, text=True, timeout=60)
         assert result.returncode == 2, result.stderr
@@ -61,7 +61,7 @@ def test_unknown_executor_or_argument_exits_2_naming_it(executable):
 
 def test_node_without_its_section_names_the_missing_parameter(tmp_path):
     result = subprocess.run(
-        ['state_feedback', '--ros-args', '--params-file',
+        [console_script('state_feedback'), '--ros-args', '--params-file',
          str(CONFIG_DIR / 'seed000_reduced_order.yaml')],
         capture_output=True, text=True, timeout=60)
     assert result.returncode == 2

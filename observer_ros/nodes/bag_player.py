@@ -47,12 +47,14 @@ from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
+from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 from rosgraph_msgs.msg import Clock
 
 from observer_ros.bags.storage import absolute_topic, BagError, message_type, Playback
 from observer_ros.ros.messages import stamp_to_ns
 from observer_ros.ros.parameters import volatile_qos
+from observer_ros.signals import StopSignals
 
 NANOSECONDS = 1_000_000_000
 
@@ -383,24 +385,27 @@ def main(args: Optional[Sequence[str]] = None) -> int:
     except BagError as e:
         print(f'play_bag: error: {e}', file=sys.stderr)
         return 2
-    rclpy.init(args=argv)
-    node = None
-    try:
-        node = BagPlayer(playback, options.rate, not options.no_clock, options.paced_by,
-                         options.trigger, options.response_timeout, options.wait_for)
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        print(node.play(executor, options.wait).summary(), flush=True)
-    except BagError as e:
-        print(f'play_bag: error: {e}', file=sys.stderr)
-        return 2
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        playback.close()
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+    # The player's loop is Python code on the SingleThreadedExecutor: the first SIGINT or
+    # SIGTERM may raise KeyboardInterrupt there; any later one is ignored (observer_ros.signals).
+    with StopSignals(interrupt=True):
+        node = None
+        try:
+            rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
+            node = BagPlayer(playback, options.rate, not options.no_clock, options.paced_by,
+                             options.trigger, options.response_timeout, options.wait_for)
+            executor = SingleThreadedExecutor()
+            executor.add_node(node)
+            print(node.play(executor, options.wait).summary(), flush=True)
+        except BagError as e:
+            print(f'play_bag: error: {e}', file=sys.stderr)
+            return 2
+        except (KeyboardInterrupt, ExternalShutdownException):
+            pass
+        finally:
+            playback.close()
+            if node is not None:
+                node.destroy_node()
+            rclpy.try_shutdown()
     return 0
 
 

@@ -24,11 +24,12 @@ prints the per-state error table and writes ``DIR/closed_loop.png``.
 import argparse
 import os
 import sys
-from typing import Optional
+from typing import Callable, Optional
 
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.parameter import Parameter
+from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 
 from observer_ros.bags.storage import BagError, STORAGES, TopicToWrite, write_bag
@@ -40,6 +41,7 @@ from observer_ros.nodes.plant_simulator import plant_done, PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.parameters import add_executor_argument, make_executor, spin_until
 from observer_ros.ros.recorder import TopicRecorder
+from observer_ros.signals import StopSignals
 
 
 #: Topics recorded by ``--report`` (and by tests).
@@ -78,15 +80,17 @@ class ClosedLoop:
 
     @property
     def system(self) -> System:
-        """The whole loop's configuration: the three nodes' parameters validated together."""
+        """Return the whole loop's configuration: the three nodes' parameters together."""
         merged = {}
         for node in (self.plant, self.observer, self.feedback):
             merged.update(node.current_parameters())
         return validate_parameters(merged)
 
-    def spin(self, timeout_sec: Optional[float] = None) -> bool:
-        """Spin until ``plant.samples`` are done (or forever); True when they are."""
-        return spin_until(self.executor, plant_done(self.plant), timeout_sec, self.context)
+    def spin(self, timeout_sec: Optional[float] = None,
+             stop: Optional[Callable[[], bool]] = None) -> bool:
+        """Spin until ``plant.samples`` are done (or forever, or ``stop()``); True when done."""
+        return spin_until(self.executor, plant_done(self.plant), timeout_sec, self.context,
+                          stop)
 
     def destroy(self) -> None:
         """Destroy every node and the executor."""
@@ -129,26 +133,28 @@ def main(args=None) -> int:
     options = parser.parse_args(remove_ros_args(argv)[1:])
     if options.record and os.path.exists(options.record):
         parser.error(f'--record: {options.record} exists already')
-    rclpy.init(args=argv)
-    try:
-        loop = ClosedLoop(record=options.report is not None or options.record is not None,
-                          executor=make_executor(options.executor))
-    except (ConfigError, DesignError) as e:
-        print(f'closed_loop: error: {e}', file=sys.stderr)
-        rclpy.try_shutdown()
-        return 2
-    try:
-        done = loop.spin()
-        if done and options.report:
-            print(loop.report(options.report))
-        if done and options.record:
-            print(f'bag: {loop.record(options.record, options.storage)}')
-    except BagError as e:
-        print(f'closed_loop: error: {e}', file=sys.stderr)
-        return 2
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        loop.destroy()
-        rclpy.try_shutdown()
+    with StopSignals() as stop:
+        # SIGINT and SIGTERM end the spin through ``stop`` (see observer_ros.signals).
+        rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
+        try:
+            loop = ClosedLoop(record=options.report is not None or options.record is not None,
+                              executor=make_executor(options.executor))
+        except (ConfigError, DesignError) as e:
+            print(f'closed_loop: error: {e}', file=sys.stderr)
+            rclpy.try_shutdown()
+            return 2
+        try:
+            done = loop.spin(stop=lambda: stop.requested)
+            if done and options.report:
+                print(loop.report(options.report))
+            if done and options.record:
+                print(f'bag: {loop.record(options.record, options.storage)}')
+        except BagError as e:
+            print(f'closed_loop: error: {e}', file=sys.stderr)
+            return 2
+        except (KeyboardInterrupt, ExternalShutdownException):
+            pass
+        finally:
+            loop.destroy()
+            rclpy.try_shutdown()
     return 0

@@ -36,6 +36,7 @@ from rclpy.publisher import Publisher
 from rclpy.qos import (
     DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy)
 from rclpy.qos_overriding_options import QoSOverridingOptions
+from rclpy.signals import SignalHandlerOptions
 from rclpy.subscription import Subscription
 from rclpy.utilities import remove_ros_args
 
@@ -43,6 +44,7 @@ from observer_ros.core.config import (
     BOOL, DOUBLE, DOUBLE_ARRAY, INTEGER, node_parameters, PARAMETER_SPECS, ParameterSpec,
     STRING, STRING_ARRAY, System, validate_parameters)
 from observer_ros.core.errors import ConfigError, DesignError
+from observer_ros.signals import StopSignals
 
 
 def volatile_qos(depth: int, reliable: bool) -> QoSProfile:
@@ -263,6 +265,10 @@ class ConfiguredNode(Node):
 EXECUTORS = ('events', 'single')
 
 
+#: Seconds between two looks at the stop request while spinning.
+STOP_POLL = 0.1
+
+
 def make_executor(name: str, context=None) -> Executor:
     """
     Return the executor called ``name``.
@@ -279,22 +285,25 @@ def make_executor(name: str, context=None) -> Executor:
 
 
 def spin_until(executor: Executor, done: Optional[Callable[[], bool]] = None,
-               timeout_sec: Optional[float] = None, context=None) -> bool:
+               timeout_sec: Optional[float] = None, context=None,
+               stop: Optional[Callable[[], bool]] = None) -> bool:
     """
     Spin ``executor`` until ``done()`` is true, the timeout passes or ROS shuts down.
 
     Always ``spin_once`` in a loop: in the rclpy 7.1 wheels ``EventsExecutor.spin()``
-    delivers no message from another process, while ``spin_once`` delivers them. Returns
-    whether ``done()`` became true.
+    delivers no message from another process, while ``spin_once`` delivers them. ``stop()``
+    (for example :attr:`observer_ros.signals.StopSignals.requested`) ends the spin early;
+    it is polled at least every :data:`STOP_POLL` seconds. Returns whether ``done()``
+    became true.
     """
     deadline = None if timeout_sec is None else time.monotonic() + timeout_sec
-    while rclpy.ok(context=context):
+    while rclpy.ok(context=context) and not (stop is not None and stop()):
         if done is not None and done():
             return True
         if deadline is not None and time.monotonic() >= deadline:
             break
-        executor.spin_once(timeout_sec=0.1 if deadline is None else
-                           min(0.1, max(0.0, deadline - time.monotonic())))
+        executor.spin_once(timeout_sec=STOP_POLL if deadline is None else
+                           min(STOP_POLL, max(0.0, deadline - time.monotonic())))
     return done is not None and done()
 
 
@@ -321,26 +330,31 @@ def run_node(factory: Callable[[], Node], program: str, args=None,
 
     ``--executor`` (before ``--ros-args``) picks the executor. ``done(node)`` may return a
     predicate that ends the spin. A bad configuration prints one line,
-    ``<program>: error: <parameter>: <reason>``, on stderr and returns 2.
+    ``<program>: error: <parameter>: <reason>``, on stderr and returns 2. SIGINT and SIGTERM
+    stop the spin and return 0 after a clean shutdown; a second one is ignored
+    (:class:`observer_ros.signals.StopSignals`).
     """
     argv = sys.argv if args is None else list(args)
     executor_name = executor_option(program, argv)
-    rclpy.init(args=argv)
-    try:
-        node = factory()
-    except (ConfigError, DesignError) as e:
-        print(f'{program}: error: {e}', file=sys.stderr)
-        rclpy.try_shutdown()
-        return 2
-    executor = make_executor(executor_name)
-    try:
-        executor.add_node(node)
-        spin_until(executor, done(node) if done else None)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        executor.remove_node(node)
-        node.destroy_node()
-        executor.shutdown()
-        rclpy.try_shutdown()
+    with StopSignals() as stop:
+        # rclpy's own handlers would raise KeyboardInterrupt inside callbacks and shut the
+        # context down from another thread: StopSignals replaces them.
+        rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
+        try:
+            node = factory()
+        except (ConfigError, DesignError) as e:
+            print(f'{program}: error: {e}', file=sys.stderr)
+            rclpy.try_shutdown()
+            return 2
+        executor = make_executor(executor_name)
+        try:
+            executor.add_node(node)
+            spin_until(executor, done(node) if done else None, stop=lambda: stop.requested)
+        except (KeyboardInterrupt, ExternalShutdownException):
+            pass
+        finally:
+            executor.remove_node(node)
+            node.destroy_node()
+            executor.shutdown()
+            rclpy.try_shutdown()
     return 0

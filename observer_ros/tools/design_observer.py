@@ -25,6 +25,7 @@ import yaml
 from observer_ros.core.config import load_parameter_file, PARAMETER_SPECS, validate_parameters
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.report import design_summary, format_report
+from observer_ros.signals import stops_on_signal
 
 
 def designed_parameters(system) -> dict:
@@ -67,6 +68,7 @@ def write_parameter_file(path: str, params: dict) -> None:
         yaml.safe_dump(document, stream, sort_keys=False, default_flow_style=None, width=99)
 
 
+@stops_on_signal('design_observer')
 def main(argv: Optional[list] = None) -> int:
     """Run the command line; returns the exit status (2 for a bad configuration)."""
     parser = argparse.ArgumentParser(

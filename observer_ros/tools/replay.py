@@ -34,10 +34,12 @@ from observer_ros.bags.storage import BagError, STORAGES
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.evaluation import align
 from observer_ros.core.plots import write_run_report
+from observer_ros.signals import stops_on_signal
 
 REPORT_NAME = 'replay'
 
 
+@stops_on_signal('replay')
 def main(args=None) -> int:
     """Entry point of ``replay`` (also ``ros2 run observer_ros replay``)."""
     parser = argparse.ArgumentParser(
