@@ -25,7 +25,7 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE_NAME]),
         ('share/' + PACKAGE_NAME, ['package.xml']),
-        ('share/' + PACKAGE_NAME + '/config', glob('config/*.yaml')),
+        ('share/' + PACKAGE_NAME + '/config', glob('config/*.yaml') + glob('config/*.xml')),
         ('share/' + PACKAGE_NAME + '/launch', glob('launch/*.launch.py')),
     ],
     # ROS 2 itself (rclpy, message packages) is deliberately not listed here: on a ROS

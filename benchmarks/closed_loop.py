@@ -16,10 +16,11 @@
 5. Closed loop: the highest real-time rate, and the lockstep simulation speed.
 
 At each rate the plant counts the samples that apply the command computed from the
-previous sample (``commands_on_time``), from the first command on (discovery takes the
-first few). Three processes (the console scripts), and the one-process ``closed_loop``
-(the three nodes on one executor). Lockstep: the plant waits for each command, on
-simulated time.
+previous sample (``commands_on_time``), from the first command on. Three processes (the
+``observer`` and ``state_feedback`` console scripts and the plant simulator node, whose
+first sample waits until its endpoints are matched: ``benchmarks.ros_runner
+matched_plant``), and the one-process ``closed_loop`` (the three nodes on one executor).
+Lockstep: the plant waits for each command, on simulated time.
 """
 
 import os
@@ -32,14 +33,12 @@ import time
 import rclpy
 from rclpy.parameter import Parameter
 
-from benchmarks import dds_stall
-from benchmarks.common import CONFIG_DIR, pyplot, Section
+from benchmarks.common import CONFIG_DIR, pyplot, REPOSITORY, Section
 from observer_ros.nodes.closed_loop import ClosedLoop
+from observer_ros.nodes.plant_simulator import LOCKSTEP_SETTLE
 from observer_ros.ros.parameters import make_executor
 
 CONFIG = CONFIG_DIR / 'seed003_full_order.yaml'
-#: Runs of a three-process rate at most (the best counts; see dds_stall).
-THREE_PROCESS_TRIES = 3
 LOG = re.compile(r'simulated (\d+) samples; (\d+) applied .*first command at sample (\w+)')
 
 
@@ -73,20 +72,20 @@ def one_process(rate: float, seconds: float, lockstep: bool = False,
 
 
 def three_processes(rate: float, seconds: float, executor: str = 'events') -> float:
-    """Observer, state_feedback and plant_simulator as processes; the on-time fraction."""
+    """Observer, state_feedback and the plant as processes; the on-time fraction."""
     samples = int(rate * seconds)
     common = ['--executor', executor, '--ros-args', '--params-file', str(CONFIG)]
     bin_dir = os.path.dirname(sys.executable)
 
-    def start(name, *extra):
-        return subprocess.Popen([os.path.join(bin_dir, name), *common, *extra],
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    def start(command, *extra):
+        return subprocess.Popen([*command, *common, *extra], stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True, cwd=REPOSITORY)
 
-    helpers = [start('observer'), start('state_feedback')]
+    helpers = [start([os.path.join(bin_dir, name)]) for name in ('observer', 'state_feedback')]
     try:
-        time.sleep(1.0)
-        plant = start('plant_simulator', '-p', f'plant.rate_hz:={float(rate)}',
-                      '-p', f'plant.samples:={samples}')
+        # Its first sample waits until y, u and u_cmd are matched (see ros_runner).
+        plant = start([sys.executable, '-m', 'benchmarks.ros_runner', 'matched_plant'],
+                      '-p', f'plant.rate_hz:={float(rate)}', '-p', f'plant.samples:={samples}')
         _, err = plant.communicate(timeout=seconds * 5 + 60)
     finally:
         for helper in helpers:
@@ -98,7 +97,7 @@ def three_processes(rate: float, seconds: float, executor: str = 'events') -> fl
                 helper.kill()
     found = LOG.search(err)
     if not found:
-        raise RuntimeError(f'plant_simulator did not report its counts: {err[-300:]}')
+        raise RuntimeError(f'the plant did not report its counts: {err[-300:]}')
     done, on_time, first = found.groups()
     return 0.0 if first == 'none' else on_time_fraction(int(done), int(on_time), int(first))
 
@@ -112,30 +111,20 @@ def run(smoke: bool, figures) -> Section:
     seconds = 1.5 if smoke else 4.0
     fractions = {'one process, single': [], 'one process, events': [],
                  'three processes, single': [], 'three processes, events': []}
-    attempts = {}
     for rate in rates:
         for executor in ('single', 'events'):
             fractions[f'one process, {executor}'].append(
                 one_process(rate, seconds, executor=executor)[0])
-            tries = []
-            while len(tries) < THREE_PROCESS_TRIES and (not tries or max(tries) < 0.99):
-                tries.append(three_processes(rate, seconds, executor))
-            fractions[f'three processes, {executor}'].append(max(tries))
-            attempts[(rate, executor)] = tries
+            fractions[f'three processes, {executor}'].append(
+                three_processes(rate, seconds, executor))
     rows = [[f'{rate:g}', *(f'{100 * fractions[kind][i]:.1f} %' for kind in fractions)]
             for i, rate in enumerate(rates)]
-    stall_counts = dds_stall.run(2 if smoke else 8)
-    retried = ', '.join(f'{rate:g} Hz {executor}: ' + ' / '.join(f'{100 * f:.0f} %' for f in t)
-                        for (rate, executor), t in attempts.items() if len(t) > 1)
-    section.add(f'seed 003 (full-order observer and state feedback), {seconds:g} s per rate; '
-                'share of the samples (after the first command) that applied the command '
-                'computed from the previous sample. Three processes: best of up to '
-                f'{THREE_PROCESS_TRIES} runs (retried only below 99 %), because on this machine '
-                'a process sometimes stops receiving from another about 1.3 s after that one '
-                'starts, without any of this package in the path: a plain rclpy talker and '
-                'listener (`python -m benchmarks.dds_stall`) received, of 1000 messages, '
-                f'{" ".join(map(str, stall_counts))} in this run. Retried: '
-                f'{retried or "none"}.', '')
+    section.add(f'seed 003 (full-order observer and state feedback), {seconds:g} s per rate, '
+                'one run each; share of the samples (after the first command) that applied '
+                'the command computed from the previous sample. Three processes: the first '
+                'sample of the plant waits until its endpoints are matched and '
+                f'{LOCKSTEP_SETTLE:g} s more (discovery between processes can take seconds: '
+                'README, Honest limits).', '')
     section.table(['rate (Hz)', 'closed_loop --executor single',
                    'closed_loop (events, the default)', 'three processes --executor single',
                    'three processes (events, the default)'], rows)

@@ -87,6 +87,32 @@ def test_one_message_reader_refuses_what_it_cannot_read():
     assert reader.read(good) == (7, [1.0, 2.0])  # and reads the good layout again
 
 
+def test_one_message_reader_checks_every_fixed_byte_of_a_repeated_layout():
+    reader = MessageReader('joint_state', 'position', ['y1'])
+    first = serialize(joint_state(5, ['y1'], [1.0]))
+    assert reader.read(first) == (5, [1.0])
+    # The same size as the last message: only the bytes tell the layouts apart.
+    renamed = serialize(joint_state(6, ['y2'], [2.0]))
+    assert len(renamed) == len(first)
+    with pytest.raises(DecodeError, match=r"joints \['y1'\] missing"):
+        reader.read(renamed)
+    # Serializers leave padding uninitialised: other padding is still the same layout.
+    padded = bytearray(serialize(joint_state(7, ['y1'], [3.0])))
+    padded[17:20] = b'\xff\xff\xff'  # after the empty frame_id, before the name count
+    assert reader.read(bytes(padded)) == (7, [3.0])
+    assert reader.read(bytes(padded)) == (7, [3.0])
+    assert reader.read(first) == (5, [1.0])
+    reader = MessageReader('float64_multi_array', 'data', ['u1', 'u2'])
+    wide = bytes(MessageWriter(bytes(Encoder('float64_multi_array', ['a', 'b', 'c']).template),
+                               'float64_multi_array', 'data').write(0, [1.0, 2.0, 3.0]))
+    narrow = MessageWriter(bytes(Encoder('float64_multi_array', ['a', 'b']).template),
+                           'float64_multi_array', 'data')
+    assert reader.read(narrow.write(0, [4.0, 5.0])) == (0, [4.0, 5.0])
+    with pytest.raises(DecodeError, match='expected 2 values in data, got 3'):
+        reader.read(wide)
+    assert reader.read(narrow.write(0, [6.0, 7.0])) == (0, [6.0, 7.0])
+
+
 @pytest.mark.parametrize('kind', ['joint_state', 'float64_multi_array'])
 def test_one_message_writer_equals_the_batch_encoder(kind):
     rng = np.random.default_rng(3)

@@ -81,10 +81,16 @@ def test_real_time_plant_and_observer_processes(config):
     pinned = f'observer.initial_state:={[0.0] * system.model.n_states}'
     with ros_context() as context:
         recorder = TopicRecorder(system, ('x_true', 'x_hat'), context=context)
-        processes = [NodeProcess('observer', '--ros-args', '--params-file', path, '-p', pinned),
-                     NodeProcess('plant_simulator', '--ros-args', '--params-file', path)]
+        x_hat = next(s for s in recorder.subscriptions if s.topic_name == '/x_hat')
+        processes = [NodeProcess('observer', '--ros-args', '--params-file', path, '-p', pinned)]
         try:
             with executor_with(context, recorder) as executor:
+                # The recorder is matched to x_hat before the plant starts, so it receives
+                # the observer's first estimate (discovery can take seconds).
+                assert spin_until(executor, lambda: x_hat.get_publisher_count() > 0, 30.0), (
+                    processes[0].stop())
+                processes.append(
+                    NodeProcess('plant_simulator', '--ros-args', '--params-file', path))
                 started = spin_until(executor, lambda: recorder.count('x_hat') > 0 and
                                      recorder.count('x_true') > 0, 30.0)
                 assert started, [p.stop() for p in processes]
@@ -119,7 +125,6 @@ def test_three_processes_in_lockstep_equal_the_one_process_loop(executor):
     with ros_context() as context:
         recorder = TopicRecorder(system, ('y', 'u', 'x_true', 'x_hat'), context=context)
         with executor_with(context, recorder) as executor:
-            spin_until(executor, lambda: False, 0.2)
             sim_time = ['-p', 'use_sim_time:=true']
             processes = [
                 NodeProcess('observer', *choice, '--ros-args', '--params-file', path, *sim_time),
@@ -127,8 +132,10 @@ def test_three_processes_in_lockstep_equal_the_one_process_loop(executor):
                             *sim_time)]
             x_hat = next(s for s in recorder.subscriptions if s.topic_name == '/x_hat')
             try:
-                # The plant waits for its own subscribers only: see the observer first.
-                assert spin_until(executor, lambda: x_hat.get_publisher_count() > 0, 30.0)
+                # The lockstep plant waits for its own peers only: the recorder is matched to
+                # the observer's x_hat first and sees the state feedback's x_hat subscription.
+                assert spin_until(executor, lambda: x_hat.get_publisher_count() > 0
+                                  and recorder.count_subscribers('/x_hat') >= 2, 30.0)
                 processes.append(NodeProcess(
                     'plant_simulator', *choice, '--ros-args', '--params-file', path,
                     '-p', 'plant.lockstep:=true', '-p', f'plant.samples:={samples}',

@@ -225,6 +225,10 @@ class _Known:
     offset: int
     values: struct.Struct
     order: list
+    #: Byte ranges outside the stamp and the wanted values: ``(0, stamp start)``,
+    #: ``(stamp end, offset)`` and ``(offset + value bytes, size)``. They hold every fixed
+    #: byte, so a message equal to an earlier match there has this layout too.
+    spans: tuple = ()
 
     def matches(self, raw) -> bool:
         return len(raw) == self.size and all(
@@ -236,7 +240,10 @@ class MessageReader:
     Decode one serialized message at a time (the online path of :func:`decode`).
 
     The last few layouts are kept, newest first: a message that matches one byte for byte
-    where the layout is defined is read with two ``struct`` calls; any other is parsed.
+    where the layout is defined is read with two ``struct`` calls; any other is parsed. The
+    bytes of the last match outside the stamp and the values are kept as well: a message of
+    the same publisher usually repeats them exactly (padding included), which is checked
+    with three comparisons instead of one per fixed range.
     """
 
     def __init__(self, kind: str, field: str, names: Sequence[str]) -> None:
@@ -244,8 +251,22 @@ class MessageReader:
         self.field = field
         self.names = list(names)
         self._known: list = []
+        self._last: Optional[_Known] = None
+        self._last_bytes: tuple = ()
 
     def _layout(self, raw) -> _Known:
+        last = self._last
+        if last is not None and len(raw) == last.size:
+            (a, b), (c, d), (e, f) = last.spans
+            head, middle, tail = self._last_bytes
+            if raw[a:b] == head and raw[c:d] == middle and raw[e:f] == tail:
+                return last
+        known = self._match(raw)
+        self._last = known
+        self._last_bytes = tuple(bytes(raw[start:end]) for start, end in known.spans)
+        return known
+
+    def _match(self, raw) -> _Known:
         for index, known in enumerate(self._known):
             if known.matches(raw):
                 if index:
@@ -253,9 +274,12 @@ class MessageReader:
                 return known
         layout = parse_layout(raw, self.kind)
         offset, count, order = _select(layout, self.kind, self.field, self.names)
+        stamp_end = ORIGIN + 8 if self.kind == 'joint_state' else ORIGIN
+        stamp_start = min(ORIGIN, stamp_end)
+        spans = ((0, stamp_start), (stamp_end, offset), (offset + 8 * count, layout.size))
         known = _Known(layout.size, tuple((start, bytes(raw[start:end]))
                                           for start, end in layout.fixed),
-                       offset, struct.Struct(f'<{count}d'), order)
+                       offset, struct.Struct(f'<{count}d'), order, spans)
         self._known = [known, *self._known[:READER_LAYOUTS - 1]]
         return known
 
@@ -295,6 +319,8 @@ class MessageWriter:
         """Return the template with ``stamp_ns`` (when it has a header) and ``values``."""
         if self.stamped:
             STAMP.pack_into(self._buffer, ORIGIN, *divmod(int(stamp_ns), 1_000_000_000))
+        if isinstance(values, np.ndarray):  # Python floats pack faster than numpy scalars
+            values = values.tolist()
         self._values.pack_into(self._buffer, self.offset, *values)
         return bytes(self._buffer)
 
