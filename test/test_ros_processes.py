@@ -82,7 +82,8 @@ def test_real_time_plant_and_observer_processes(config):
     with ros_context() as context:
         recorder = TopicRecorder(system, ('x_true', 'x_hat'), context=context)
         processes = [NodeProcess('observer', '--ros-args', '--params-file', path, '-p', pinned),
-                     NodeProcess('plant_simulator', '--ros-args', '--params-file', path)]
+                     NodeProcess('plant_simulator', '--ros-args', '--params-file', path,
+                                 '-p', 'plant.wait_for_command:=false')]
         try:
             with executor_with(context, recorder) as executor:
                 started = spin_until(executor, lambda: recorder.count('x_hat') > 0 and

@@ -33,6 +33,7 @@ from sensor_msgs.msg import JointState
 from conftest import CONFIG_DIR
 from observer_ros.core.config import load_parameter_file, validate_parameters
 from observer_ros.core.errors import ConfigError
+from observer_ros.nodes.plant_simulator import PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.messages import ns_to_stamp, stamp_to_ns
 from observer_ros.ros.parameters import EXECUTORS, make_executor
@@ -329,3 +330,164 @@ def test_feedback_safety_parameters_are_validated():
                                   'plant.input_limits': [-1.0, 1.0]})
         with pytest.raises(ConfigError, match='^' + re.escape(reason)):
             validate_parameters(changed)
+
+
+class PlantBench:
+    """A plant_simulator node and a test node that can play its peers."""
+
+    def __init__(self, context, executor: str, **values) -> None:
+        self.plant = PlantSimulatorNode(context=context, parameter_overrides=overrides(**values))
+        self.created = time.monotonic()
+        self.node = Node('plant_bench', context=context)
+        self.samples = {'y': [], 'u': [], 'x_true': []}  # (receive time, stamp, values)
+        self.x_true = self.subscribe('x_true')
+        self.executor = make_executor(executor, context)
+        for node in (self.plant, self.node):
+            self.executor.add_node(node)
+        self.answer = None  # values to answer each y with on u_cmd, stamped like the y
+        self.command_publisher = None
+
+    def subscribe(self, topic: str):
+        """Record ``topic`` (y answers with ``self.answer`` when set)."""
+        def on_message(message):
+            self.samples[topic].append((time.monotonic(), stamp_of(message),
+                                        list(message.position)))
+            if topic == 'y' and self.answer is not None:
+                self.command(stamp_of(message), self.answer)
+        return self.node.create_subscription(JointState, topic, on_message, 100)
+
+    def command(self, stamp_ns: int, values) -> None:
+        """Publish one u_cmd; remember when."""
+        self.last_command = time.monotonic()
+        message = JointState(name=['u1'], position=[float(v) for v in values])
+        ns_to_stamp(message.header.stamp, stamp_ns)
+        self.command_publisher.publish(message)
+
+    def be_the_loop(self) -> None:
+        """Subscribe y and u and publish u_cmd, as observer and feedback would."""
+        self.y = self.subscribe('y')
+        self.u = self.subscribe('u')
+        self.command_publisher = self.node.create_publisher(JointState, 'u_cmd', 10)
+
+    def destroy(self) -> None:
+        """Destroy the nodes and the executor."""
+        for node in (self.plant, self.node):
+            self.executor.remove_node(node)
+            node.destroy_node()
+        self.executor.shutdown()
+
+
+@pytest.fixture
+def plant_factory():
+    """Yield a function building a :class:`PlantBench` in a private context."""
+    made = []
+
+    def build(executor, **values):
+        context_manager = ros_context('--params-file', str(SEED003))
+        made.append(context_manager)
+        bench = PlantBench(context_manager.__enter__(), executor, **values)
+        made.append(bench)
+        return bench
+
+    yield build
+    for item in reversed(made):
+        if isinstance(item, PlantBench):
+            item.destroy()
+        else:
+            item.__exit__(None, None, None)
+
+
+COMMAND = [0.7]
+SAFE_INPUT = [-0.3]
+COMMAND_TIMEOUT = 0.1
+PERIOD = 0.01
+#: The promise (README, plant simulator): the safe input from the first sample after
+#: plant.command_timeout, i.e. within the timeout plus one sample period plus this margin.
+PLANT_MARGIN = 0.010
+
+
+@pytest.mark.parametrize('executor', EXECUTORS)
+def test_plant_applies_the_safe_input_after_the_command_timeout_and_resumes(plant_factory,
+                                                                            executor):
+    bench = plant_factory(executor, plant__command_timeout=COMMAND_TIMEOUT,
+                          plant__safe_input=SAFE_INPUT, topics__u_cmd__limit=10.0)
+    bench.be_the_loop()
+    spin = bench.executor
+    assert spin_until(spin, lambda: len(bench.samples['u']) >= 5, 10.0)
+    # Before the first command: the safe input. A command beyond topics.u_cmd.limit: dropped.
+    assert all(u[2] == SAFE_INPUT for u in bench.samples['u'])
+    bench.command(0, [20.0])
+    assert spin_until(spin, lambda: bench.plant.counters['out_of_range'] == 1, 5.0)
+    delays = []
+    for outage in range(3):
+        bench.answer = COMMAND
+        count = len(bench.samples['u'])
+        assert spin_until(spin, lambda: len(bench.samples['u']) > count + 20, 5.0)
+        applied = [u[2] for u in bench.samples['u'][count:]]
+        assert applied[-15:] == [COMMAND] * 15, applied  # resumed with the next command
+        bench.answer = None
+        last = bench.last_command
+        count = len(bench.samples['u'])
+        assert spin_until(spin, lambda: any(
+            u[2] == SAFE_INPUT for u in bench.samples['u'][count:]), 5.0), (
+            'the plant kept applying the last command')
+        first_safe = next(u for u in bench.samples['u'][count:] if u[2] == SAFE_INPUT)
+        delays.append(first_safe[0] - last)
+        assert bench.plant.counters['command_timeouts'] == outage + 1
+    text = ', '.join(f'{1e3 * d:.1f} ms' for d in delays)
+    assert statistics.median(delays) <= COMMAND_TIMEOUT + PERIOD + PLANT_MARGIN, text
+    assert min(delays) >= COMMAND_TIMEOUT, text
+
+
+def test_lockstep_plant_counts_the_command_timeout_in_simulated_time(plant_factory):
+    # Commands for samples 0 ... 9, then none: every sample waits plant.lockstep_timeout and
+    # advances; the command of sample 9 arrived at t_9 and is used while t_k - t_9 <= 0.05 s
+    # (samples 10 ... 14), then the safe input; answering again from sample 20 resumes it.
+    bench = plant_factory('single', plant__lockstep=True, plant__samples=25,
+                          plant__lockstep_timeout=0.02, plant__command_timeout=0.05,
+                          plant__safe_input=SAFE_INPUT)
+    bench.be_the_loop()
+    period_ns = bench.plant.period_ns
+
+    def answer(message):
+        index = stamp_of(message) // period_ns - 1
+        if index < 10 or index >= 20:
+            bench.command(stamp_of(message), [0.01 * index])
+    bench.node.create_subscription(JointState, 'y', answer, 100)
+    assert spin_until(bench.executor, bench.plant.finished.done, 30.0)
+    spin_for(bench.executor, 0.1)
+    applied = {stamp // period_ns - 1: values[0] for _, stamp, values in bench.samples['u']}
+    assert sorted(applied) == list(range(25))
+    expected = ([SAFE_INPUT[0]] + [0.01 * k for k in range(9)] + [0.09] * 5
+                + [SAFE_INPUT[0]] * 6 + [0.01 * k for k in range(20, 24)])
+    np.testing.assert_allclose([applied[k] for k in range(25)], expected, rtol=0, atol=1e-15)
+    assert bench.plant.counters['command_timeouts'] == 1
+    assert bench.plant.counters['lockstep_timeouts'] == 10
+
+
+@pytest.mark.parametrize('executor', EXECUTORS)
+def test_real_time_plant_publishes_nothing_before_its_peers(plant_factory, executor):
+    bench = plant_factory(executor, plant__start_timeout=0.0)
+    spin_for(bench.executor, 1.0)
+    assert bench.plant.counters['samples'] == 0 and not bench.samples['x_true']
+    assert not bench.plant.started
+    assert len(bench.plant.missing_peers()) == 2
+    bench.y = bench.subscribe('y')
+    spin_for(bench.executor, 0.5)
+    assert not bench.plant.started and not bench.samples['x_true']
+    assert bench.plant.missing_peers() == [
+        'a publisher on /u_cmd (plant.wait_for_command)']
+    bench.command_publisher = bench.node.create_publisher(JointState, 'u_cmd', 10)
+    assert spin_until(bench.executor, lambda: len(bench.samples['y']) >= 3, 5.0)
+    # Sample 0 reached the subscriber: nothing was published into the void.
+    assert bench.samples['y'][0][1] == bench.plant.start_ns
+    assert bench.samples['x_true'][0][1] == bench.plant.start_ns
+    assert bench.plant.counters.get('started_without_peers', 0) == 0
+
+
+def test_plant_start_timeout_starts_anyway_with_a_warning(plant_factory):
+    bench = plant_factory('events', plant__start_timeout=0.3)
+    assert spin_until(bench.executor, lambda: bench.samples['x_true'], 5.0)
+    first = bench.samples['x_true'][0][0]
+    assert first - bench.created >= 0.3
+    assert bench.plant.counters['started_without_peers'] == 1
