@@ -37,7 +37,7 @@ from observer_ros.nodes.plant_simulator import PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.messages import ns_to_stamp, stamp_to_ns
 from observer_ros.ros.parameters import EXECUTORS, make_executor
-from ros_support import overrides, ros_context
+from ros_support import NodeProcess, overrides, ros_context
 
 SEED003 = CONFIG_DIR / 'seed003_full_order.yaml'
 NANOSECONDS = 1_000_000_000
@@ -491,3 +491,53 @@ def test_plant_start_timeout_starts_anyway_with_a_warning(plant_factory):
     first = bench.samples['x_true'][0][0]
     assert first - bench.created >= 0.3
     assert bench.plant.counters['started_without_peers'] == 1
+
+
+def test_killed_feedback_process_leaves_the_plant_on_its_safe_input_until_restarted():
+    # The three console-script processes in real time. The plant publishes nothing until the
+    # observer and this test subscribe to y and state_feedback publishes u_cmd; when
+    # state_feedback is killed it applies plant.safe_input after plant.command_timeout, and
+    # the restarted node's commands take over again.
+    path = str(SEED003)
+    safe = '[0.123]'
+    with ros_context() as context:
+        listener = Node('listener', context=context)
+        samples = {'u': [], 'x_true': []}
+        subscriptions = {topic: listener.create_subscription(
+            JointState, topic, lambda m, t=topic: samples[t].append(
+                (time.monotonic(), list(m.position))), 1000) for topic in samples}
+        listener.create_subscription(JointState, 'y', lambda m: None, 10)
+        executor = make_executor('single', context)
+        executor.add_node(listener)
+        plant_args = ['--ros-args', '--params-file', path, '-p', 'plant.lockstep_subscribers:=2',
+                      '-p', f'plant.safe_input:={safe}', '-p', 'plant.start_timeout:=0.0']
+        processes = {'plant': NodeProcess('plant_simulator', *plant_args)}
+        try:
+            assert spin_until(executor, lambda: all(
+                s.get_publisher_count() > 0 for s in subscriptions.values()), 30.0)
+            spin_for(executor, 1.0)
+            assert not samples['x_true'], 'the plant started without its peers'
+            for name in ('observer', 'state_feedback'):
+                processes[name] = NodeProcess(name, '--ros-args', '--params-file', path)
+            assert spin_until(executor, lambda: len(samples['u']) > 100 and all(
+                u != [0.123] for _, u in samples['u'][-20:]), 30.0), samples['u'][-5:]
+            killed = time.monotonic()
+            processes['state_feedback'].process.kill()
+            processes['state_feedback'].stop()
+            assert spin_until(executor, lambda: samples['u'][-1][1] == [0.123], 5.0)
+            first_safe = next(t for t, u in samples['u'] if t > killed and u == [0.123])
+            assert first_safe - killed <= 0.5 + PERIOD + 0.1  # plant.command_timeout: 0.5 s
+            before = [u for t, u in samples['u'] if killed < t < killed + 0.5 - 0.05]
+            assert before and [0.123] not in before
+            processes['state_feedback'] = NodeProcess('state_feedback', '--ros-args',
+                                                      '--params-file', path)
+            assert spin_until(executor, lambda: samples['u'][-1][1] != [0.123], 30.0)
+        finally:
+            outcomes = {name: process.stop() for name, process in processes.items()}
+            executor.remove_node(listener)
+            listener.destroy_node()
+            executor.shutdown()
+    for name, (code, _, err) in outcomes.items():
+        assert code == 0, (name, err)
+    assert 'no u_cmd for plant.command_timeout = 0.5 s' in outcomes['plant'][2]
+    assert 'u_cmd is back' in outcomes['plant'][2]
