@@ -27,6 +27,7 @@ import numpy as np
 import pytest
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.parameter_client import AsyncParameterClient
 from rosgraph_msgs.msg import Clock as ClockMessage
 from sensor_msgs.msg import JointState
 
@@ -232,6 +233,23 @@ def test_first_safe_command_within_the_promised_bound_then_repeated(bench_factor
     spin_for(bench.executor, 3 * SAFE_PERIOD)
     late = [c for c in bench.commands[count:] if c[2] == SAFE_COMMAND]
     assert len(late) <= 1, late  # at most one repeat already on its way
+
+
+def test_run_time_timeout_and_repeat_period_take_effect(bench_factory):
+    bench = bench_factory('events')
+    client = AsyncParameterClient(bench.node, 'state_feedback')
+    assert client.wait_for_services(timeout_sec=5.0)
+    future = client.set_parameters_atomically(overrides(
+        feedback__timeout=TIMEOUT / 2, feedback__safe_command_period=SAFE_PERIOD / 2))
+    assert spin_until(bench.executor, future.done, 5.0)
+    assert future.result().result.successful, future.result().result.reason
+    delays = [bench.outage_delay() for _ in range(3)]
+    text = ', '.join(f'{1e3 * d:.1f} ms' for d in delays)
+    assert TIMEOUT / 2 - 0.005 <= statistics.median(delays) <= TIMEOUT / 2 + WATCHDOG_MARGIN, (
+        text)
+    count = len(bench.commands)
+    spin_for(bench.executor, 10 * SAFE_PERIOD)
+    assert 16 <= len(bench.commands) - count <= 21, len(bench.commands) - count
 
 
 @pytest.mark.parametrize('executor', EXECUTORS)

@@ -41,6 +41,7 @@ and as fast as the nodes answer.
 """
 
 from collections import Counter
+import time
 
 from rclpy.clock import Clock, ClockType
 from rclpy.task import Future
@@ -92,7 +93,8 @@ class PlantSimulatorNode(ConfiguredNode):
             self.codecs['u_cmd'].message_class, 'u_cmd', self._on_command)
         self.command = None
         self.command_stamp = None
-        #: When the latest command arrived: steady ns (real time) or sample ns (lockstep).
+        #: When the latest command arrived: ``time.monotonic_ns()`` (the steady clock) in real
+        #: time, the current sample's stamp in lockstep.
         self.command_arrival_ns = None
         self.command_lost = False
         self.started = False
@@ -124,8 +126,7 @@ class PlantSimulatorNode(ConfiguredNode):
                            f'exceeds topics.u_cmd.limit = {self.command_limit:g} in magnitude')
             return
         self.command, self.command_stamp = command, stamp
-        self.command_arrival_ns = (self.stamp_ns if self.lockstep
-                                   else self.steady.now().nanoseconds)
+        self.command_arrival_ns = self.stamp_ns if self.lockstep else time.monotonic_ns()
         if self.command_lost:
             self.command_lost = False
             self.get_logger().info('u_cmd is back: applying the commands again')
@@ -138,7 +139,7 @@ class PlantSimulatorNode(ConfiguredNode):
         """Return ``(input, is a command)``: the latest command, or the safe input."""
         if self.command is None:
             return self.safe_input, False
-        now = self.stamp_ns if self.lockstep else self.steady.now().nanoseconds
+        now = self.stamp_ns if self.lockstep else time.monotonic_ns()
         if now - self.command_arrival_ns <= self.command_timeout_ns:
             return self.command, True
         if not self.command_lost:
