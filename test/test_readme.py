@@ -14,6 +14,8 @@
 
 """README stays in step with the code: commands, CI and the parameter schema."""
 
+import re
+
 from conftest import console_scripts, REPOSITORY
 from observer_ros.core.config import parameter_table, PARAMETERS
 
@@ -45,3 +47,11 @@ def test_every_shipped_config_is_listed():
 def test_every_executable_is_documented():
     for name in console_scripts():
         assert f'`{name}`' in README, name
+
+
+def test_every_test_readme_cites_exists():
+    defined = set()
+    for path in (REPOSITORY / 'test').glob('test_*.py'):
+        defined.update(re.findall(r'^def (test_\w+)', path.read_text(encoding='utf-8'), re.M))
+    cited = set(re.findall(r'`(test_\w+)`', README))
+    assert cited and cited <= defined, sorted(cited - defined)

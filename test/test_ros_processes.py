@@ -90,7 +90,8 @@ def test_real_time_plant_and_observer_processes(config):
                 assert spin_until(executor, lambda: x_hat.get_publisher_count() > 0, 30.0), (
                     processes[0].stop())
                 processes.append(
-                    NodeProcess('plant_simulator', '--ros-args', '--params-file', path))
+                    NodeProcess('plant_simulator', '--ros-args', '--params-file', path,
+                                '-p', 'plant.wait_for_command:=false'))
                 started = spin_until(executor, lambda: recorder.count('x_hat') > 0 and
                                      recorder.count('x_true') > 0, 30.0)
                 assert started, [p.stop() for p in processes]

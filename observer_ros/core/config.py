@@ -195,11 +195,15 @@ PARAMETERS = (
                                               'when the plant is square'), _FB, dynamic=True),
     _array('feedback.input_limits', 'Command saturation: [min, max] or [min_1, max_1, ..., '
            'min_m, max_m].', _FB, dynamic=True, limit=VALUE_LIMIT),
-    _seconds('feedback.timeout', 0.5, 'Seconds without x_hat after which the safe command is '
-             'published (0.001 ... 3600).', 0.001, 3600.0, _FB, dynamic=True),
-    _array('feedback.safe_command', 'Command published when x_hat is stale, m values '
-           '(default zeros; inside feedback.input_limits).', _FB, dynamic=True,
-           limit=VALUE_LIMIT),
+    _seconds('feedback.timeout', 0.5, 'Steady-clock seconds without an accepted x_hat after '
+             'which the safe command is published, with use_sim_time too (0.001 ... 3600).',
+             0.001, 3600.0, _FB, dynamic=True),
+    _array('feedback.safe_command', 'Command published when x_hat is stale or a command is '
+           'beyond topics.u_cmd.limit, m values (default zeros; inside feedback.input_limits).',
+           _FB, dynamic=True, limit=VALUE_LIMIT),
+    _seconds('feedback.safe_command_period', 0.1, 'Steady-clock seconds between repetitions '
+             'of the safe command while x_hat is stale (0.001 ... 3600).', 0.001, 3600.0, _FB,
+             dynamic=True),
     ParameterSpec('plant.rate_hz', DOUBLE, 100.0,
                   'Plant sample rate in Hz (0.01 ... 10000; a discrete model: 1 / model.dt).',
                   nodes=_PL, low=0.01, high=10000.0, unit='a rate in Hz'),
@@ -220,9 +224,22 @@ PARAMETERS = (
              'command before advancing with the last one (with a warning).', 0.001, 3600.0,
              _PL),
     ParameterSpec('plant.lockstep_subscribers', INTEGER, 1,
-                  'Lockstep: subscribers on y (the observer plus any recorder) to wait for '
-                  'before the first sample (1 ... 100).', nodes=_PL, low=1, high=100,
-                  unit='a count'),
+                  'Subscribers on y (the observer plus any recorder) the plant waits for '
+                  'before its first sample, in lockstep and real time (1 ... 100).', nodes=_PL,
+                  low=1, high=100, unit='a count'),
+    ParameterSpec('plant.wait_for_command', BOOL, True,
+                  'Also wait for a publisher on u_cmd before the first sample (false for an '
+                  'open-loop run without state_feedback).', nodes=_PL),
+    _seconds('plant.start_timeout', 10.0, 'Wall-clock seconds to wait for those peers; then '
+             'the plant starts anyway with a warning naming what is missing. 0 waits without '
+             'limit (0 ... 3600).', 0.0, 3600.0, _PL),
+    _seconds('plant.command_timeout', 0.5, 'Seconds without a new u_cmd after which the plant '
+             'applies plant.safe_input until the next command (counted, warned once per '
+             'outage); steady clock in real time, simulated time in lockstep. More than one '
+             'sample period (0.001 ... 3600).', 0.001, 3600.0, _PL),
+    _array('plant.safe_input', 'Input applied before the first command and after '
+           'plant.command_timeout, m values (default zeros; inside plant.input_limits).', _PL,
+           limit=VALUE_LIMIT),
     ParameterSpec('plant.samples', INTEGER, 0,
                   'Number of samples to simulate, then stop; 0 runs until shut down.',
                   nodes=_PL, low=0, high=10 ** 12, unit='a count'),
@@ -307,6 +324,8 @@ class PlantSettings:
     measurement_noise: list
     seed: int
     input_limits: Optional[np.ndarray]
+    command_timeout: float
+    safe_input: np.ndarray
 
     @property
     def period_ns(self) -> int:
@@ -323,6 +342,7 @@ class FeedbackSettings:
     input_limits: Optional[np.ndarray]
     timeout: float
     safe_command: np.ndarray
+    safe_command_period: float
 
 
 @dataclass(frozen=True)
@@ -650,7 +670,8 @@ def _feedback(params: dict, model: StateSpaceModel) -> Optional[FeedbackSettings
     _check_inside('feedback.safe_command', safe_command,
                   params['topics.u_cmd.limit'], 'topics.u_cmd.limit')
     return FeedbackSettings(design=design, reference_gain=reference_gain, input_limits=limits,
-                            timeout=params['feedback.timeout'], safe_command=safe_command)
+                            timeout=params['feedback.timeout'], safe_command=safe_command,
+                            safe_command_period=params['feedback.safe_command_period'])
 
 
 def _check_inside(parameter: str, vector: np.ndarray, limits, source: str) -> None:
@@ -689,12 +710,22 @@ def _plant(params: dict, model: StateSpaceModel) -> PlantSettings:
     if params['plant.measurement_noise']:
         covariance_from_flat('plant.measurement_noise', params['plant.measurement_noise'],
                              model.n_outputs)
+    limits = _limits('plant.input_limits', params['plant.input_limits'], model.n_inputs)
+    safe = params['plant.safe_input']
+    safe_input = (vector_from_flat('plant.safe_input', safe, model.n_inputs) if safe
+                  else np.zeros(model.n_inputs))
+    _check_inside('plant.safe_input', safe_input, limits, 'plant.input_limits')
+    _check_inside('plant.safe_input', safe_input, params['topics.u.limit'], 'topics.u.limit')
+    command_timeout = params['plant.command_timeout']
+    if command_timeout * rate <= 1.0:
+        raise ConfigError('plant.command_timeout', f'expected more than one sample period '
+                          f'(1 / plant.rate_hz = {1.0 / rate:g} s), got {command_timeout:g}: '
+                          f'every sample would find the command stale')
     return PlantSettings(rate_hz=rate, initial_state=initial_state,
                          process_noise=params['plant.process_noise'],
                          measurement_noise=params['plant.measurement_noise'],
-                         seed=params['plant.seed'],
-                         input_limits=_limits('plant.input_limits', params['plant.input_limits'],
-                                              model.n_inputs))
+                         seed=params['plant.seed'], input_limits=limits,
+                         command_timeout=command_timeout, safe_input=safe_input)
 
 
 def _check_topics(params: dict) -> None:

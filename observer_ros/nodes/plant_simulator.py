@@ -17,32 +17,48 @@
 
 At sample ``k`` (time ``t_k``) it publishes ``y`` and ``x_true`` of the current state and the
 input ``u`` it applies from ``t_k`` to ``t_(k+1)``, all stamped ``t_k``; the applied input is
-the latest command received on ``u_cmd`` (zero before the first), saturated to
-``plant.input_limits``. So in a closed loop the command computed from sample ``k-1`` acts
-over the interval after sample ``k``.
+the latest command received on ``u_cmd``, saturated to ``plant.input_limits``. So in a closed
+loop the command computed from sample ``k-1`` acts over the interval after sample ``k``.
 
-Real time: a timer on the node clock ticks at ``plant.rate_hz``. Lockstep
-(``plant.lockstep: true``): the plant publishes ``/clock`` itself and moves to the next
+Like an actuator driver it has a command timeout: before the first command, and at every
+sample whose latest command arrived more than ``plant.command_timeout`` seconds before it, it
+applies ``plant.safe_input`` instead (an outage is counted as ``command_timeouts`` and warned
+about once); the next command ends the outage. Real time measures that age on the steady
+clock, lockstep in simulated time. A ``u_cmd`` beyond ``topics.u_cmd.limit`` is dropped and
+counted (``out_of_range``).
+
+Start: no sample is published before ``plant.lockstep_subscribers`` subscriptions on ``y``
+have matched and, with ``plant.wait_for_command``, a publisher on ``u_cmd`` has; after
+``plant.start_timeout`` wall-clock seconds without them the plant starts anyway with a
+warning naming what is missing. A steady timer polls for them; nothing blocks.
+
+Real time: then a timer on the node clock ticks at ``plant.rate_hz``, the first sample at
+once. Lockstep (``plant.lockstep: true``): after its peers have been there for
+:data:`LOCKSTEP_SETTLE` seconds the plant publishes ``/clock`` itself and moves to the next
 sample only once the command computed from the current sample (stamped ``t_k``) has arrived,
 or after ``plant.lockstep_timeout`` wall-clock seconds with a warning; runs are deterministic
 and as fast as the nodes answer.
 """
 
 from collections import Counter
+import time
 
-import numpy as np
 from rclpy.clock import Clock, ClockType
 from rclpy.task import Future
 from rosgraph_msgs.msg import Clock as ClockMessage
 
 from observer_ros.core.config import PLANT
 from observer_ros.core.simulation import PlantSimulator
+from observer_ros.core.streaming import within_limit
 from observer_ros.ros.diagnostics import DiagnosticsPublisher
 from observer_ros.ros.messages import MalformedMessage, ns_to_stamp, VectorCodec
 from observer_ros.ros.parameters import ConfiguredNode, publisher_qos, run_node
 
 #: Wall-clock seconds the lockstep plant waits after its peers are discovered.
 LOCKSTEP_SETTLE = 0.5
+
+#: Wall-clock seconds between two looks for the peers the plant waits for at start.
+START_POLL = 0.02
 
 NANOSECONDS = 1_000_000_000
 
@@ -64,30 +80,38 @@ class PlantSimulatorNode(ConfiguredNode):
         self.lockstep = params['plant.lockstep']
         self.lockstep_timeout = params['plant.lockstep_timeout']
         self.lockstep_subscribers = params['plant.lockstep_subscribers']
+        self.wait_for_command = params['plant.wait_for_command']
+        self.start_timeout = params['plant.start_timeout']
+        self.command_timeout_ns = round(plant.command_timeout * NANOSECONDS)
+        self.safe_input = self.simulator.saturate(plant.safe_input)
+        self.command_limit = params['topics.u_cmd.limit']
         self.codecs = {topic: VectorCodec.for_topic(system, topic)
                        for topic in ('y', 'u', 'x_true', 'u_cmd')}
         self.publishers_ = {topic: self.topic_publisher(self.codecs[topic].message_class, topic)
                             for topic in ('y', 'u', 'x_true')}
-        self.topic_subscription(self.codecs['u_cmd'].message_class, 'u_cmd', self._on_command)
+        self.command_subscription = self.topic_subscription(
+            self.codecs['u_cmd'].message_class, 'u_cmd', self._on_command)
         self.command = None
         self.command_stamp = None
+        #: When the latest command arrived: ``time.monotonic_ns()`` (the steady clock) in real
+        #: time, the current sample's stamp in lockstep.
+        self.command_arrival_ns = None
+        self.command_lost = False
+        self.started = False
         self.index = 0
         self.stamp_ns = 0
         self.counters: Counter = Counter()
         self.finished = Future()
         self.diagnostics = DiagnosticsPublisher(self, lambda: self.counters)
-        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.peers_seen_ns = None
+        self.waiting_since_ns = self.steady.now().nanoseconds
         if self.lockstep:
             self.clock_publisher = self.create_publisher(ClockMessage, '/clock', publisher_qos())
             self.awaiting = None
-            self.peers_seen_ns = None
-            self.start_timer = self.create_timer(0.05, self._try_start, clock=steady)
             self.timeout_timer = self.create_timer(self.lockstep_timeout, self._on_timeout,
-                                                   clock=steady)
-            self.timeout_timer.cancel()
-        else:
-            self.start_ns = self.get_clock().now().nanoseconds
-            self.tick_timer = self.create_timer(self.period, self._tick)
+                                                   clock=self.steady, autostart=False)
+        self.start_timer = self.create_timer(START_POLL, self._try_start, clock=self.steady)
 
     def _on_command(self, message) -> None:
         try:
@@ -96,21 +120,46 @@ class PlantSimulatorNode(ConfiguredNode):
             self.counters['malformed'] += 1
             self.warn_once('malformed u_cmd', f'dropped a malformed command: {e}')
             return
+        if not within_limit(command, self.command_limit):
+            self.counters['out_of_range'] += 1
+            self.warn_once('u_cmd out of range', f'dropped u_cmd {command.tolist()}: a value '
+                           f'exceeds topics.u_cmd.limit = {self.command_limit:g} in magnitude')
+            return
         self.command, self.command_stamp = command, stamp
+        self.command_arrival_ns = self.stamp_ns if self.lockstep else time.monotonic_ns()
+        if self.command_lost:
+            self.command_lost = False
+            self.get_logger().info('u_cmd is back: applying the commands again')
         if self.lockstep and self.awaiting is not None and stamp in (self.awaiting, None):
             self.awaiting = None
             self.timeout_timer.cancel()
             self._advance()
 
+    def _command_in_effect(self) -> tuple:
+        """Return ``(input, is a command)``: the latest command, or the safe input."""
+        if self.command is None:
+            return self.safe_input, False
+        now = self.stamp_ns if self.lockstep else time.monotonic_ns()
+        if now - self.command_arrival_ns <= self.command_timeout_ns:
+            return self.command, True
+        if not self.command_lost:
+            self.command_lost = True
+            self.counters['command_timeouts'] += 1
+            self.get_logger().warning(
+                f'no u_cmd for plant.command_timeout = {self.command_timeout_ns / 1e9:g} s '
+                f'({"simulated" if self.lockstep else "steady clock"}): applying '
+                f'plant.safe_input {self.safe_input.tolist()} until the next command')
+        self.counters['safe_input_samples'] += 1
+        return self.safe_input, False
+
     def _publish_sample(self) -> None:
-        """Publish sample ``index`` at ``stamp_ns`` and apply the latest command."""
+        """Publish sample ``index`` at ``stamp_ns`` and apply the command in effect."""
         y = self.simulator.measure()
         self.publishers_['x_true'].publish(
             self.codecs['x_true'].encode(self.stamp_ns, self.simulator.x))
-        if self.command is None:
-            applied = self.simulator.saturate(np.zeros(self.simulator.model.n_inputs))
-        else:
-            applied = self.simulator.saturate(self.command)
+        command, commanded = self._command_in_effect()
+        applied = self.simulator.saturate(command)
+        if commanded:
             if 'first_command_sample' not in self.counters:
                 self.counters['first_command_sample'] = self.index
             if self.command_stamp == self.stamp_ns - self.period_ns:
@@ -141,19 +190,44 @@ class PlantSimulatorNode(ConfiguredNode):
         self.simulator.step(self.applied, self.period)
         self.index += 1
 
+    def missing_peers(self) -> list:
+        """Return what the plant still waits for before its first sample (empty: nothing)."""
+        missing = []
+        subscribers = self.publishers_['y'].get_subscription_count()
+        if subscribers < self.lockstep_subscribers:
+            missing.append(f'{self.lockstep_subscribers} subscriber(s) on '
+                           f'{self.publishers_["y"].topic_name} (plant.lockstep_subscribers; '
+                           f'{subscribers} so far)')
+        if self.wait_for_command and self.command_subscription.get_publisher_count() == 0:
+            missing.append(f'a publisher on {self.command_subscription.topic_name} '
+                           f'(plant.wait_for_command)')
+        return missing
+
     def _try_start(self) -> None:
-        ready = (self.count_subscribers(self.publishers_['y'].topic_name)
-                 >= self.lockstep_subscribers
-                 and self.count_publishers(self.resolve_topic_name('u_cmd')) > 0)
-        now = Clock(clock_type=ClockType.STEADY_TIME).now().nanoseconds
-        if not ready:
+        now = self.steady.now().nanoseconds
+        missing = self.missing_peers()
+        if missing:
             self.peers_seen_ns = None
-            return
-        if self.peers_seen_ns is None:
-            self.peers_seen_ns = now
-        if now - self.peers_seen_ns >= LOCKSTEP_SETTLE * NANOSECONDS:
-            self.start_timer.cancel()
+            waited = (now - self.waiting_since_ns) / NANOSECONDS
+            if not self.start_timeout or waited < self.start_timeout:
+                return
+            self.counters['started_without_peers'] += 1
+            self.get_logger().warning(
+                f'starting without {" and ".join(missing)}: plant.start_timeout = '
+                f'{self.start_timeout:g} s passed')
+        elif self.lockstep:
+            if self.peers_seen_ns is None:
+                self.peers_seen_ns = now
+            if now - self.peers_seen_ns < LOCKSTEP_SETTLE * NANOSECONDS:
+                return
+        self.start_timer.cancel()
+        self.started = True
+        if self.lockstep:
             self._lockstep_sample()
+        else:
+            self.start_ns = self.get_clock().now().nanoseconds
+            self.tick_timer = self.create_timer(self.period, self._tick)
+            self._tick()
 
     def _lockstep_sample(self) -> None:
         if self._finish_if_done():
@@ -178,7 +252,8 @@ class PlantSimulatorNode(ConfiguredNode):
         self.counters['lockstep_timeouts'] += 1
         self.get_logger().warning(
             f'lockstep: no command for sample {self.index} (stamp {self.awaiting} ns) within '
-            f'plant.lockstep_timeout = {self.lockstep_timeout} s; advancing with the last one')
+            f'plant.lockstep_timeout = {self.lockstep_timeout} s; advancing with the input in '
+            f'effect')
         self.awaiting = None
         self._advance()
 

@@ -16,18 +16,32 @@
 ``state_feedback``: ``u_cmd = sat(-K x_hat + N r)`` from ``x_hat`` and ``reference``.
 
 The command carries the stamp of the estimate it was computed from, so a lockstep plant can
-tell it apart. When no ``x_hat`` has arrived for ``feedback.timeout`` seconds (node clock) the
-node publishes ``feedback.safe_command`` instead, and says so once per outage.
+tell it apart. An ``x_hat`` or ``reference`` beyond ``topics.<topic>.limit`` is dropped and
+counted (``out_of_range``); a command that comes out non-finite or beyond
+``topics.u_cmd.limit`` is replaced by ``feedback.safe_command`` (counted as
+``unsafe_command``, still stamped like its estimate).
+
+The watchdog runs on the steady clock, whatever ``use_sim_time`` says: ``feedback.timeout``
+seconds of real time after the last accepted estimate arrived, a one-shot timer re-armed by
+every accepted estimate fires and the node publishes ``feedback.safe_command`` (stamped with
+the node clock), then repeats it every ``feedback.safe_command_period`` seconds until the
+next accepted estimate. So a ``/clock`` that jumps back, stops or races does not change when
+the safe command comes. The watchdog arms with the first accepted estimate: before any, the
+node publishes nothing (the plant applies its own safe input).
 """
 
 from collections import Counter
+import time
+
+from rclpy.clock import Clock, ClockType
 
 from observer_ros.core.config import FEEDBACK
 from observer_ros.core.control import StateFeedbackLaw
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.placement import preload_methods
+from observer_ros.core.streaming import within_limit
 from observer_ros.ros.diagnostics import DiagnosticsPublisher
-from observer_ros.ros.messages import MalformedMessage, VectorCodec
+from observer_ros.ros.messages import LATEST_STAMP_NS, MalformedMessage, VectorCodec
 from observer_ros.ros.parameters import ConfiguredNode, run_node
 
 NANOSECONDS = 1_000_000_000
@@ -40,6 +54,12 @@ def feedback_law(system) -> StateFeedbackLaw:
                             feedback.input_limits)
 
 
+def value_limits(system) -> dict:
+    """``topics.<topic>.limit`` of the feedback node's topics."""
+    return {topic: system.parameters[f'topics.{topic}.limit']
+            for topic in ('x_hat', 'reference', 'u_cmd')}
+
+
 class StateFeedbackNode(ConfiguredNode):
     """The state-feedback node."""
 
@@ -49,19 +69,27 @@ class StateFeedbackNode(ConfiguredNode):
         system = self.system
         self.vet_system(system)
         self.law = feedback_law(system)
+        self.limits = value_limits(system)
         self.codecs = {topic: VectorCodec.for_topic(system, topic)
                        for topic in ('x_hat', 'reference', 'u_cmd')}
         self.counters: Counter = Counter()
         self.reference = None
-        self.last_arrival_ns = self.get_clock().now().nanoseconds
+        #: ``time.monotonic_ns()`` when the last accepted estimate arrived (None: none yet).
+        self.last_estimate_ns = None
         self.stale = False
         self.publisher = self.topic_publisher(self.codecs['u_cmd'].message_class, 'u_cmd')
         self.topic_subscription(self.codecs['x_hat'].message_class, 'x_hat', self._on_estimate)
         self.topic_subscription(self.codecs['reference'].message_class, 'reference',
                                 self._on_reference)
-        self.watchdog = self.create_timer(system.feedback.timeout / 2.0, self._check_stale)
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        feedback = system.feedback
+        self.watchdog = self.create_timer(feedback.timeout, self._on_watchdog, clock=steady,
+                                          autostart=False)
+        self.repeat_timer = self.create_timer(feedback.safe_command_period,
+                                              self._publish_safe_command, clock=steady,
+                                              autostart=False)
         self.diagnostics = DiagnosticsPublisher(self, lambda: self.counters)
-        self.get_logger().info(f'K = {system.feedback.design.gain.tolist()}')
+        self.get_logger().info(f'K = {feedback.design.gain.tolist()}')
 
     def vet_system(self, system) -> None:
         """Refuse configurations without a feedback gain."""
@@ -70,19 +98,32 @@ class StateFeedbackNode(ConfiguredNode):
                               'or feedback.poles')
 
     def apply_system(self, previous, system) -> None:
-        """Use the new gains from the next estimate on."""
+        """Use the new gains, limits and timing from now on."""
         self.law = feedback_law(system)
-        if system.feedback.timeout != previous.feedback.timeout:
-            self.watchdog.cancel()
-            self.watchdog = self.create_timer(system.feedback.timeout / 2.0, self._check_stale)
+        self.limits = value_limits(system)
+        new, old = system.feedback, previous.feedback
+        for timer, period, before in ((self.watchdog, new.timeout, old.timeout),
+                                      (self.repeat_timer, new.safe_command_period,
+                                       old.safe_command_period)):
+            if period != before:
+                timer.timer_period_ns = round(period * NANOSECONDS)
+                if not timer.is_canceled():
+                    timer.reset()  # the new period counts from now
 
     def _decode(self, topic: str, message):
         try:
-            return self.codecs[topic].decode(message)
+            stamp, vector = self.codecs[topic].decode(message)
         except MalformedMessage as e:
             self.counters['malformed'] += 1
             self.warn_once(f'malformed {topic}', f'dropped a malformed message: {e}')
             return None, None
+        if not within_limit(vector, self.limits[topic]):
+            self.counters['out_of_range'] += 1
+            self.warn_once(f'{topic} out of range',
+                           f'dropped {topic} {vector.tolist()}: a value exceeds '
+                           f'topics.{topic}.limit = {self.limits[topic]:g} in magnitude')
+            return None, None
+        return stamp, vector
 
     def _on_reference(self, message) -> None:
         _, reference = self._decode('reference', message)
@@ -98,27 +139,56 @@ class StateFeedbackNode(ConfiguredNode):
         stamp, estimate = self._decode('x_hat', message)
         if estimate is None:
             return
-        now = self.get_clock().now().nanoseconds
-        self.last_arrival_ns = now
+        self.last_estimate_ns = time.monotonic_ns()
+        self.watchdog.reset()
         if self.stale:
             self.stale = False
+            self.repeat_timer.cancel()
             self.get_logger().info('x_hat is back: state feedback resumed')
         command = self.law.command(estimate, self.reference)
+        if not within_limit(command, self.limits['u_cmd']):
+            self.counters['unsafe_command'] += 1
+            self.warn_once('unsafe command', f'the command {command.tolist()} is non-finite or '
+                           f'beyond topics.u_cmd.limit = {self.limits["u_cmd"]:g}: published '
+                           f'feedback.safe_command instead')
+            command = self.system.feedback.safe_command
         self.counters['commands'] += 1
-        self.publisher.publish(self.codecs['u_cmd'].encode(stamp or now, command))
+        self.publisher.publish(self.codecs['u_cmd'].encode(stamp or self._now_stamp(),
+                                                           command))
 
-    def _check_stale(self) -> None:
+    def _now_stamp(self) -> int:
+        """Return the node clock as a stamp: 0 (unstamped) beyond what a stamp holds."""
         now = self.get_clock().now().nanoseconds
-        if now - self.last_arrival_ns <= self.system.feedback.timeout * NANOSECONDS:
+        if now > LATEST_STAMP_NS:
+            self.warn_once('clock beyond stamps', f'the node clock ({now} ns) lies beyond '
+                           f'builtin_interfaces/Time: commands are stamped 0')
+            return 0
+        return now
+
+    def _on_watchdog(self) -> None:
+        if self.stale or self.last_estimate_ns is None:
+            self.watchdog.cancel()
             return
+        timeout = self.system.feedback.timeout
+        if time.monotonic_ns() - self.last_estimate_ns < round(timeout * NANOSECONDS):
+            return  # an estimate re-armed the timer after this call was due
+        self.watchdog.cancel()
+        self.stale = True
+        self.counters['stale'] += 1
+        self.get_logger().warning(
+            f'no x_hat for feedback.timeout = {timeout} s: publishing the safe command '
+            f'{self.system.feedback.safe_command.tolist()} every '
+            f'feedback.safe_command_period = {self.system.feedback.safe_command_period} s')
+        self._publish_safe_command()
+        self.repeat_timer.reset()
+
+    def _publish_safe_command(self) -> None:
         if not self.stale:
-            self.stale = True
-            self.counters['stale'] += 1
-            self.get_logger().warning(
-                f'no x_hat for more than feedback.timeout = {self.system.feedback.timeout} s: '
-                f'publishing the safe command {self.system.feedback.safe_command.tolist()}')
+            self.repeat_timer.cancel()
+            return
+        self.counters['safe_commands'] += 1
         self.publisher.publish(
-            self.codecs['u_cmd'].encode(now, self.system.feedback.safe_command))
+            self.codecs['u_cmd'].encode(self._now_stamp(), self.system.feedback.safe_command))
 
 
 def main(args=None) -> int:
