@@ -17,13 +17,12 @@
 
 At each rate the plant counts the samples that apply the command computed from the
 previous sample (``commands_on_time``), from the first command on. Three processes (the
-``observer`` and ``state_feedback`` console scripts and the plant simulator node, whose
-first sample waits until its endpoints are matched: ``benchmarks.ros_runner
-matched_plant``), and the one-process ``closed_loop`` (the three nodes on one executor).
+observer, state feedback and plant simulator nodes through ``benchmarks.ros_runner``; the
+plant's first sample waits until its peers are matched), and the one-process
+``closed_loop`` (the three nodes on one executor).
 Lockstep: the plant waits for each command, on simulated time.
 """
 
-import os
 import re
 import signal
 import subprocess
@@ -75,16 +74,16 @@ def three_processes(rate: float, seconds: float, executor: str = 'events') -> fl
     """Observer, state_feedback and the plant as processes; the on-time fraction."""
     samples = int(rate * seconds)
     common = ['--executor', executor, '--ros-args', '--params-file', str(CONFIG)]
-    bin_dir = os.path.dirname(sys.executable)
+    runner = [sys.executable, '-m', 'benchmarks.ros_runner']
 
     def start(command, *extra):
         return subprocess.Popen([*command, *common, *extra], stdout=subprocess.PIPE,
                                 stderr=subprocess.PIPE, text=True, cwd=REPOSITORY)
 
-    helpers = [start([os.path.join(bin_dir, name)]) for name in ('observer', 'state_feedback')]
+    helpers = [start([*runner, name]) for name in ('observer', 'state_feedback')]
     try:
-        # Its first sample waits until y, u and u_cmd are matched (see ros_runner).
-        plant = start([sys.executable, '-m', 'benchmarks.ros_runner', 'matched_plant'],
+        # The plant's first sample waits until y has a subscriber and u_cmd a publisher.
+        plant = start([*runner, 'plant_simulator'],
                       '-p', f'plant.rate_hz:={float(rate)}', '-p', f'plant.samples:={samples}')
         _, err = plant.communicate(timeout=seconds * 5 + 60)
     finally:

@@ -16,18 +16,19 @@
 Spin a node of benchmarks 4 and 5 on a chosen executor.
 
 ``python -m benchmarks.ros_runner KIND [--executor NAME] --ros-args ...``, ``KIND`` one of
-``observer``, ``relay``, ``raw_relay`` (benchmark 4) and ``matched_plant`` (benchmark 5).
+``observer``, ``relay``, ``raw_relay`` (benchmark 4), ``state_feedback`` and
+``plant_simulator`` (benchmark 5; the package's own nodes, so that no installed console
+script has to be found: the same code runs from a pip set-up and a colcon workspace).
 """
 
 import sys
 
-from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from observer_ros.nodes.observer import ObserverNode
-from observer_ros.nodes.plant_simulator import (LOCKSTEP_SETTLE, NANOSECONDS, plant_done,
-                                                PlantSimulatorNode)
+from observer_ros.nodes.plant_simulator import plant_done, PlantSimulatorNode
+from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.parameters import publisher_qos, run_node, subscription_qos
 
 
@@ -59,45 +60,9 @@ class RawRelay(Node):
                                  raw=True)
 
 
-class MatchedPlant(PlantSimulatorNode):
-    """
-    The real-time plant simulator, its first sample held until its peers are matched.
-
-    ``plant_simulator`` starts sampling at once. Here sample 0 waits until ``y`` and ``u``
-    each have a matched subscription (the observer) and ``u_cmd`` a matched publisher (the
-    state feedback), then ``LOCKSTEP_SETTLE`` more for the far ends to match as well, so
-    that benchmark 5 counts from a connected loop.
-    """
-
-    def __init__(self) -> None:
-        super().__init__()
-        self.tick_timer.cancel()
-        self.command_subscription = next(
-            s for s in self.subscriptions
-            if s.topic_name == self.resolve_topic_name('u_cmd'))
-        self.matched_ns = None
-        self.match_timer = self.create_timer(0.01, self._wait_for_peers,
-                                             clock=Clock(clock_type=ClockType.STEADY_TIME))
-
-    def _wait_for_peers(self) -> None:
-        matched = (self.publishers_['y'].get_subscription_count() > 0
-                   and self.publishers_['u'].get_subscription_count() > 0
-                   and self.command_subscription.get_publisher_count() > 0)
-        now = Clock(clock_type=ClockType.STEADY_TIME).now().nanoseconds
-        if not matched:
-            self.matched_ns = None
-            return
-        if self.matched_ns is None:
-            self.matched_ns = now
-        if now - self.matched_ns >= LOCKSTEP_SETTLE * NANOSECONDS:
-            self.match_timer.cancel()
-            self.start_ns = self.get_clock().now().nanoseconds
-            self.tick_timer.reset()
-
-
 #: What ``python -m benchmarks.ros_runner KIND`` spins.
 NODES = {'observer': ObserverNode, 'relay': Relay, 'raw_relay': RawRelay,
-         'matched_plant': MatchedPlant}
+         'state_feedback': StateFeedbackNode, 'plant_simulator': PlantSimulatorNode}
 
 
 def main() -> int:
@@ -107,7 +72,7 @@ def main() -> int:
         return 2
     kind = sys.argv[1]
     return run_node(NODES[kind], 'ros_runner', [sys.argv[0], *sys.argv[2:]],
-                    done=plant_done if kind == 'matched_plant' else None)
+                    done=plant_done if kind == 'plant_simulator' else None)
 
 
 if __name__ == '__main__':

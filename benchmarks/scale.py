@@ -21,7 +21,6 @@ model against one for the second-order seed 003 model (same executable, paramete
 generated file).
 """
 
-import os
 from pathlib import Path
 import signal
 import subprocess
@@ -41,8 +40,8 @@ from observer_ros.core.model import StateSpaceModel
 
 def resident_kib(parameter_file: str) -> int:
     """Return the VmRSS (KiB) of an ``observer`` process once it has logged its poles."""
-    executable = os.path.join(os.path.dirname(sys.executable), 'observer')
-    process = subprocess.Popen([executable, '--ros-args', '--params-file', parameter_file],
+    process = subprocess.Popen([sys.executable, '-m', 'benchmarks.ros_runner', 'observer',
+                                '--ros-args', '--params-file', parameter_file],
                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     try:
         line = process.stderr.readline()
