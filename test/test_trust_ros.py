@@ -28,6 +28,7 @@ import numpy as np
 import pytest
 from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.parameter import Parameter
+from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
 from conftest import CONFIG_DIR, REPOSITORY
@@ -259,3 +260,45 @@ def test_a_node_warns_about_unknown_keys_of_its_own_sections(tmp_path):
     assert process.returncode == 0, err
     assert 'unknown parameter observer.polse in the parameter file is ignored' in err
     assert 'feedback.' not in err  # another node's section: no warning
+
+
+@pytest.mark.parametrize('node_class', [ObserverNode, StateFeedbackNode])
+def test_a_clock_that_is_no_time_is_dropped_with_sim_time(node_class):
+    with ros_context('--params-file', str(SEED003)) as context:
+        node = node_class(context=context,
+                          parameter_overrides=[Parameter('use_sim_time', value=True)])
+        driver = Driver(context)
+        clock = driver.node.create_publisher(Clock, '/clock', 10)
+        with executor_with(context, node, driver.node) as executor:
+            assert spin_until(executor, lambda: clock.get_subscription_count() >= 1, 10.0)
+            for count, (sec, nanosec) in enumerate(INVALID_STAMPS, start=1):
+                message = Clock()  # before: ValueError in rclpy's time source killed the node
+                message.clock.sec, message.clock.nanosec = sec, nanosec
+                clock.publish(message)  # one at a time: the /clock subscription keeps one
+                assert spin_until(executor, lambda: node.invalid_clock == count, 5.0)
+            valid = Clock()
+            valid.clock.sec = 42
+            clock.publish(valid)
+            assert spin_until(executor, lambda: node.get_clock().now().nanoseconds ==
+                              42 * 10 ** 9, 5.0)
+
+
+def test_the_plant_never_publishes_a_value_beyond_its_topic_limit():
+    from observer_ros.nodes.plant_simulator import PlantSimulatorNode
+    settings = [Parameter('plant.initial_state', value=[2.0, 0.0]),
+                Parameter('topics.y.limit', value=1.0),
+                Parameter('plant.wait_for_command', value=False),
+                Parameter('plant.samples', value=150)]
+    with ros_context('--params-file', str(SEED003)) as context:
+        plant = PlantSimulatorNode(context=context, parameter_overrides=settings)
+        driver = Driver(context)
+        received = []
+        driver.node.create_subscription(JointState, 'y', received.append, 200)
+        with executor_with(context, plant, driver.node) as executor:
+            assert spin_until(executor, plant.finished.done, 20.0)
+            spin_until(executor, lambda: len(received) + plant.counters['out_of_range'] >=
+                       150, 5.0)
+    values = np.array([m.position[0] for m in received])
+    assert plant.counters['out_of_range'] > 0 and len(values) > 0
+    assert len(values) + plant.counters['out_of_range'] == 150
+    assert np.abs(values).max() <= 1.0

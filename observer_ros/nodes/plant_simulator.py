@@ -43,6 +43,7 @@ and as fast as the nodes answer.
 from collections import Counter
 import time
 
+import numpy as np
 from rclpy.clock import Clock, ClockType
 from rclpy.task import Future
 from rosgraph_msgs.msg import Clock as ClockMessage
@@ -155,8 +156,7 @@ class PlantSimulatorNode(ConfiguredNode):
     def _publish_sample(self) -> None:
         """Publish sample ``index`` at ``stamp_ns`` and apply the command in effect."""
         y = self.simulator.measure()
-        self.publishers_['x_true'].publish(
-            self.codecs['x_true'].encode(self.stamp_ns, self.simulator.x))
+        self._publish_within('x_true', self.simulator.x)
         command, commanded = self._command_in_effect()
         applied = self.simulator.saturate(command)
         if commanded:
@@ -165,9 +165,20 @@ class PlantSimulatorNode(ConfiguredNode):
             if self.command_stamp == self.stamp_ns - self.period_ns:
                 self.counters['commands_on_time'] += 1
         self.applied = applied
-        self.publishers_['u'].publish(self.codecs['u'].encode(self.stamp_ns, applied))
-        self.publishers_['y'].publish(self.codecs['y'].encode(self.stamp_ns, y))
+        self._publish_within('u', applied)
+        self._publish_within('y', y)
         self.counters['samples'] += 1
+
+    def _publish_within(self, topic: str, vector) -> None:
+        """Publish ``vector`` on ``topic`` unless it is not finite or beyond its limit."""
+        limit = self.system.parameters[f'topics.{topic}.limit']
+        if not within_limit(np.asarray(vector, dtype=float), limit):
+            self.counters['out_of_range'] += 1
+            self.warn_once(f'{topic} out of range', f'{topic} not published: a value is not '
+                           f'finite or beyond topics.{topic}.limit = {limit:g} (the simulated '
+                           f'plant diverges)')
+            return
+        self.publishers_[topic].publish(self.codecs[topic].encode(self.stamp_ns, vector))
 
     def _finish_if_done(self) -> bool:
         if self.samples and self.index >= self.samples:

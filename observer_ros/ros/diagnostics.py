@@ -18,8 +18,10 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 
 #: Counters whose growth means data was lost or repaired; they raise the level to WARN.
-WARNING_COUNTERS = ('malformed', 'duplicate', 'out_of_order', 'restart_gap',
-                    'restart_backward_jump', 'late_input', 'lockstep_timeouts', 'stale')
+WARNING_COUNTERS = ('malformed', 'out_of_range', 'future_stamp', 'duplicate', 'out_of_order',
+                    'restart_gap', 'restart_backward_jump', 'late_input', 'estimate_reset',
+                    'step_failed', 'lockstep_timeouts', 'stale', 'unsafe_command',
+                    'command_timeouts', 'started_without_peers', 'invalid_clock')
 
 
 class DiagnosticsPublisher:
@@ -34,6 +36,8 @@ class DiagnosticsPublisher:
     def publish(self) -> None:
         """Publish the current counters."""
         counters = dict(self.counters_source())
+        if getattr(self.node, 'invalid_clock', 0):
+            counters['invalid_clock'] = self.node.invalid_clock
         status = DiagnosticStatus(
             name=f'observer_ros: {self.node.get_fully_qualified_name()}',
             hardware_id='observer_ros',

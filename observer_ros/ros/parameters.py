@@ -44,6 +44,7 @@ from observer_ros.core.config import (
     BOOL, DOUBLE, DOUBLE_ARRAY, INTEGER, node_parameters, PARAMETER_SPECS, ParameterSpec,
     STRING, STRING_ARRAY, System, validate_parameters)
 from observer_ros.core.errors import ConfigError, DesignError
+from observer_ros.ros.messages import LATEST_STAMP_NS, stamp_problem, stamp_to_ns
 from observer_ros.signals import StopSignals
 
 
@@ -73,6 +74,33 @@ def publisher_qos() -> QoSProfile:
 #: Users may override history, depth and reliability per topic with the standard
 #: ``qos_overrides./<topic>.<publisher|subscription>.<policy>`` parameters.
 QOS_OVERRIDES = QoSOverridingOptions.with_default_policies()
+
+
+def guard_clock(node: Node, on_invalid: Callable[[str], None]) -> None:
+    """
+    Make ``node`` drop ``/clock`` messages that are no time instead of dying on them.
+
+    rclpy's time source turns every ``/clock`` into a ``Time``, which raises inside the
+    subscription callback for a negative ``sec`` (and takes ``nanosec >= 1e9`` or times
+    beyond what a stamp holds as they come). With ``use_sim_time`` that kills the node; the
+    guard passes only valid times on and reports the others to ``on_invalid``.
+    """
+    source = node._time_source  # rclpy exposes no hook on the /clock callback
+    original = source.clock_callback
+
+    def checked(message) -> None:
+        stamp = message.clock
+        problem = stamp_problem(stamp.sec, stamp.nanosec)
+        if problem is None and stamp_to_ns(stamp) > LATEST_STAMP_NS:
+            problem = f'sec={stamp.sec} is beyond what a stamp holds'
+        if problem:
+            on_invalid(problem)
+            return
+        original(message)
+
+    source.clock_callback = checked  # a /clock subscription made later binds this one
+    if source._clock_sub is not None:
+        source._clock_sub.callback = checked
 
 
 #: The ROS parameter type of each schema kind.
@@ -138,6 +166,8 @@ class ConfiguredNode(Node):
 
     def __init__(self, node_name: str, role: str, **kwargs) -> None:
         super().__init__(node_name, **kwargs)
+        self.invalid_clock = 0
+        guard_clock(self, self._on_invalid_clock)
         self.role = role
         self.specs = {spec.name: spec for spec in node_parameters(role)}
         for spec in self.specs.values():
@@ -177,6 +207,10 @@ class ConfiguredNode(Node):
             self.get_logger().warning(
                 f'unknown parameter {name} in the parameter file is ignored (see the '
                 f'parameter schema in README)')
+
+    def _on_invalid_clock(self, problem: str) -> None:
+        self.invalid_clock += 1
+        self.warn_once('invalid clock', f'dropped a /clock message: {problem}')
 
     def current_parameters(self) -> dict:
         """Return this node's schema parameters as a flat ``{name: value}`` mapping."""
