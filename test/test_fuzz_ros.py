@@ -169,6 +169,113 @@ def test_bad_messages_never_reach_the_estimate():
             assert campaign['examples'] == CAMPAIGN.max_examples and campaign['bad'] > 50
 
 
+#: Bad kinds for nodes without stamp rules (state_feedback, the plant): every one is dropped.
+UNSTAMPED_RULES = sorted(set(BAD_KINDS) - {'future', 'duplicate'})
+
+
+def test_bad_estimates_and_references_never_reach_the_command():
+    system = validate_parameters(load_parameter_file(str(SEED003)))
+    law_names = system.model.state_names
+    with ros_context('--params-file', str(SEED003)) as context:
+        feedback = StateFeedbackNode(context=context)
+        driver = Driver(context)
+        reference = driver.node.create_publisher(JointState, 'reference', 10)
+        with executor_with(context, feedback, driver.node) as executor:
+            assert spin_until(executor, lambda: feedback.count_publishers('x_hat') >= 1 and
+                              feedback.count_publishers('reference') >= 1 and
+                              driver.node.count_subscribers('u_cmd') >= 1, 10.0)
+            clock = feedback.get_clock()
+            campaign = {'bad': 0}
+            rng = np.random.default_rng(3)
+
+            @CAMPAIGN
+            @given(st.data())
+            def example(data):
+                before = dict(feedback.counters)
+                expected = {}
+                sent = []
+                for index in range(8):
+                    for _ in range(data.draw(st.integers(0, 2))):
+                        topic = data.draw(st.sampled_from(['x_hat', 'reference']))
+                        kind = data.draw(st.sampled_from(UNSTAMPED_RULES))
+                        names = law_names if topic == 'x_hat' else system.model.output_names
+                        raw = bad_message(kind, names, clock.now().nanoseconds - 10 ** 9,
+                                          clock.now().nanoseconds, data)
+                        (driver.x_hat if topic == 'x_hat' else reference).publish(raw)
+                        expected[BAD_KINDS[kind]] = expected.get(BAD_KINDS[kind], 0) + 1
+                        campaign['bad'] += 1
+                        assert spin_until(executor, lambda: all(
+                            feedback.counters[key] - before.get(key, 0) >= count
+                            for key, count in expected.items()), 5.0), expected
+                    estimate = rng.uniform(-1.0, 1.0, size=len(law_names))
+                    stamp = clock.now().nanoseconds - 10 ** 9 + index
+                    driver.x_hat.publish(message(stamp, law_names, estimate))
+                    sent.append((stamp, feedback.law.command(estimate, None)))
+                    assert spin_until(executor, lambda: any(
+                        stamp_to_ns(m.header.stamp) == stamp for m in driver.commands), 5.0)
+                for key, count in expected.items():
+                    assert feedback.counters[key] - before.get(key, 0) == count, key
+                assert feedback.reference is None  # no bad reference was taken
+                by_stamp = {stamp_to_ns(m.header.stamp): np.array(m.position)
+                            for m in driver.commands}
+                for stamp, command in sent:
+                    assert np.array_equal(by_stamp[stamp], command)
+                assert all(np.isfinite(m.position).all() for m in driver.commands)
+
+            example()
+            assert campaign['bad'] > 30
+
+
+def test_bad_commands_never_reach_the_plant():
+    from observer_ros.nodes.plant_simulator import PlantSimulatorNode
+    settings = [Parameter('plant.wait_for_command', value=False),
+                Parameter('plant.command_timeout', value=3600.0)]
+    system = validate_parameters(load_parameter_file(str(SEED003)))
+    names = system.model.input_names
+    with ros_context('--params-file', str(SEED003)) as context:
+        plant = PlantSimulatorNode(context=context, parameter_overrides=settings)
+        driver = Driver(context)
+        command = driver.node.create_publisher(JointState, 'u_cmd', 10)
+        applied = []
+        driver.node.create_subscription(JointState, 'u', applied.append, 100)
+        driver.node.create_subscription(JointState, 'y', lambda m: None, 10)  # starts the plant
+        with executor_with(context, plant, driver.node) as executor:
+            assert spin_until(executor, lambda: plant.count_publishers('u_cmd') >= 1 and
+                              len(applied) > 0, 10.0)
+            clock = plant.get_clock()
+            campaign = {'bad': 0, 'good': 0}
+
+            @CAMPAIGN
+            @given(st.data())
+            def example(data):
+                before = dict(plant.counters)
+                expected = {}
+                good = [data.draw(st.floats(-1.0, 1.0))]
+                command.publish(message(clock.now().nanoseconds, names, good))
+                campaign['good'] += 1
+                assert spin_until(executor, lambda: plant.command is not None and
+                                  plant.command.tolist() == good, 5.0)
+                for _ in range(data.draw(st.integers(1, 4))):
+                    kind = data.draw(st.sampled_from(UNSTAMPED_RULES))
+                    command.publish(bad_message(kind, names, clock.now().nanoseconds,
+                                                clock.now().nanoseconds, data))
+                    expected[BAD_KINDS[kind]] = expected.get(BAD_KINDS[kind], 0) + 1
+                    campaign['bad'] += 1
+                    assert spin_until(executor, lambda: all(
+                        plant.counters[key] - before.get(key, 0) >= count
+                        for key, count in expected.items()), 5.0), expected
+                for key, count in expected.items():
+                    assert plant.counters[key] - before.get(key, 0) == count, key
+                assert plant.command.tolist() == good  # the last good command still applies
+                count = len(applied)
+                assert spin_until(executor, lambda: len(applied) > count, 5.0)
+                assert list(applied[-1].position) == good
+                assert all(np.isfinite(m.position).all() for m in applied)
+
+            example()
+            assert campaign['bad'] > 30
+
+
 # --- parameters ---------------------------------------------------------------------------
 
 FLOATS = st.one_of(st.sampled_from([0.0, -0.0, 1.0, -1.0, 1e-300, -1e300, 1e300, 1e12, 3e10,
