@@ -48,7 +48,7 @@ from test_ros_nodes import Driver, plant_samples
 SEED003 = CONFIG_DIR / 'seed003_full_order.yaml'
 KALMAN = CONFIG_DIR / 'kalman_noisy.yaml'
 PERIOD_NS = 10_000_000
-CAMPAIGN = settings(max_examples=25, deadline=None, derandomize=True, database=None,
+CAMPAIGN = settings(max_examples=60, deadline=None, derandomize=True, database=None,
                     suppress_health_check=list(HealthCheck))
 
 #: Kinds of bad message and the counter each must raise.

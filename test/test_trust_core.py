@@ -301,3 +301,70 @@ def test_every_tool_refuses_an_unknown_parameter_the_same_way(tmp_path):
 def test_the_limit_check_is_exact_for_every_limit(vector, limit, inside):
     from observer_ros.core.streaming import within_limit
     assert within_limit(np.array(vector, dtype=float), limit) is inside
+
+
+def node_like(stream, events):
+    """Feed ``events`` as the observer node does: the steady path first, then the general."""
+    out, stream.steady_taken = [], 0
+    for kind, stamp, value, now in events:
+        if kind == 'u':
+            out += [(s.stamp_ns, s.estimate) for s in stream.add_input(stamp, value, now)]
+            continue
+        result = stream.add_steady_measurement(stamp, float(value[0]), now)
+        if result is None:
+            samples = stream.add_measurement(stamp, value, now)
+            out += [(s.stamp_ns, s.estimate) for s in samples]
+        elif result:
+            out.append((stamp, np.array(result[:2])))
+            stream.steady_taken += 1
+        stream.prepare()
+    out += [(s.stamp_ns, s.estimate) for s in stream.flush()]
+    return out
+
+
+def general(stream, events):
+    out = []
+    for kind, stamp, value, now in events:
+        add = stream.add_input if kind == 'u' else stream.add_measurement
+        out += [(s.stamp_ns, s.estimate) for s in add(stamp, value, now)]
+    out += [(s.stamp_ns, s.estimate) for s in stream.flush()]
+    return out
+
+
+@pytest.mark.parametrize('messy', [False, True])
+@pytest.mark.parametrize('seed', [0, 1, 2])
+def test_the_steady_path_the_general_path_and_the_batch_replay_agree(messy, seed):
+    rng = np.random.default_rng(seed)
+    rows = samples(300, seed)
+    events = []
+    stamp = SECOND_NS
+    for k, (_, u, y) in enumerate(rows):
+        if messy and rng.random() < 0.2:
+            stamp += int(PERIOD_NS * rng.uniform(0.5, 1.5))  # jitter
+        else:
+            stamp += PERIOD_NS
+        if messy and rng.random() < 0.02:
+            stamp += 2 * SECOND_NS  # a gap beyond observer.max_gap
+        value = y.copy()
+        if messy and rng.random() < 0.03:
+            value = np.array([rng.choice([1e12, math.nan])])
+        events.append(('u', stamp, u, stamp + 1))
+        events.append(('y', stamp, value, stamp + 1))
+        if messy and rng.random() < 0.03:
+            events.append(('y', stamp - PERIOD_NS // 2, y, stamp + 1))  # out of order
+    kwargs = {'clock_tolerance_ns': SECOND_NS // 2, 'limits': ValueLimits(1e9, 1e9, 1e9, 1e9)}
+    fast, _ = double_integrator_stream(**kwargs)
+    slow, _ = double_integrator_stream(**kwargs)
+    got, expected = node_like(fast, events), general(slow, events)
+    assert fast.steady_taken > (100 if messy else 280)  # the fast path did the work
+    assert [s for s, _ in got] == [s for s, _ in expected]
+    assert np.array_equal(np.array([e for _, e in got]), np.array([e for _, e in expected]))
+    assert fast.counters == slow.counters
+    batch, _ = double_integrator_stream(**kwargs)
+    inputs = [e for e in events if e[0] == 'u']
+    outputs = [e for e in events if e[0] == 'y']
+    result = batch.replay([e[1] for e in inputs], [e[2] for e in inputs],
+                          [e[1] for e in outputs], [e[2] for e in outputs],
+                          [e[3] for e in inputs], [e[3] for e in outputs])
+    assert result.stamps_ns.tolist() == [s for s, _ in expected]
+    assert np.array_equal(result.estimates, np.array([e for _, e in expected]))

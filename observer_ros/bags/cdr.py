@@ -224,7 +224,7 @@ class _Known:
     segments: tuple  # (start, bytes) that must match
     offset: int
     values: struct.Struct
-    order: list
+    order: Optional[list]  # None: the values are the wanted ones, in order
     #: Byte ranges outside the stamp and the wanted values: ``(0, stamp start)``,
     #: ``(stamp end, offset)`` and ``(offset + value bytes, size)``. They hold every fixed
     #: byte, so a message equal to an earlier match there has this layout too.
@@ -279,7 +279,8 @@ class MessageReader:
         spans = ((0, stamp_start), (stamp_end, offset), (offset + 8 * count, layout.size))
         known = _Known(layout.size, tuple((start, bytes(raw[start:end]))
                                           for start, end in layout.fixed),
-                       offset, struct.Struct(f'<{count}d'), order, spans)
+                       offset, struct.Struct(f'<{count}d'),
+                       None if order == list(range(count)) else order, spans)
         self._known = [known, *self._known[:READER_LAYOUTS - 1]]
         return known
 
@@ -293,13 +294,24 @@ class MessageReader:
             Not little-endian plain CDR, truncated, or without the wanted values.
 
         """
+        seconds, nanoseconds, values = self.read_parts(raw)
+        return seconds * 1_000_000_000 + nanoseconds, values
+
+    def read_parts(self, raw: bytes) -> tuple:
+        """
+        Return ``(sec, nanosec, values)`` as the message holds them (zeros without a header).
+
+        ``values`` is a list in the wanted order. Raises DecodeError as :meth:`read` does.
+        """
         known = self._layout(raw)
-        stamp = 0
+        seconds = nanoseconds = 0
         if self.kind == 'joint_state':
             seconds, nanoseconds = STAMP.unpack_from(raw, ORIGIN)
-            stamp = seconds * 1_000_000_000 + nanoseconds
         values = known.values.unpack_from(raw, known.offset)
-        return stamp, [values[i] for i in known.order]
+        order = known.order
+        if order is None:  # the message holds exactly the wanted values, in order
+            return seconds, nanoseconds, list(values)
+        return seconds, nanoseconds, [values[i] for i in order]
 
 
 class MessageWriter:

@@ -21,6 +21,8 @@ Also publishes ``innovation`` (``y - C x_hat_prior``), ``x_hat_covariance`` (Kal
 """
 
 from collections import Counter
+import time
+from typing import Optional
 
 import numpy as np
 from rclpy.clock import Clock, ClockType
@@ -36,6 +38,9 @@ from observer_ros.ros.messages import MalformedMessage, VectorCodec
 from observer_ros.ros.parameters import ConfiguredNode, run_node
 
 NANOSECONDS = 1_000_000_000
+
+#: How long a node-clock reading serves the clock tolerance check (see ``_clock_for``).
+CLOCK_REUSE_NS = 100_000_000
 
 #: Errors a per-interval design may raise on a sample (the sample is dropped and counted).
 STEP_ERRORS = (ObserverRosError, np.linalg.LinAlgError, ValueError, ArithmeticError)
@@ -61,10 +66,11 @@ class ObserverNode(ConfiguredNode):
         self.topic_subscription(self.codecs['y'].message_class, 'y', self._on_measurement)
         self.topic_subscription(self.codecs['u'].message_class, 'u', self._on_input)
         self.create_service(Trigger, '~/reset', self._on_reset)
-        self.steady_clock = Clock(clock_type=ClockType.STEADY_TIME)
         self.input_wait_ns = round(system.parameters['observer.input_wait'] * NANOSECONDS)
-        self.wait_timer = self.create_timer(max(self.input_wait_ns, 1) / NANOSECONDS,
-                                            self._on_wait_expired, clock=self.steady_clock)
+        self.wait_timer = self.create_timer(  # the steady clock is time.monotonic_ns's
+            max(self.input_wait_ns, 1) / NANOSECONDS, self._on_wait_expired,
+            clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self._clock_floor = (0, 0)
         self.wait_timer.cancel()
         self._waiting_for = None
         self.diagnostics = DiagnosticsPublisher(self, self.counters)
@@ -108,11 +114,32 @@ class ObserverNode(ConfiguredNode):
             system.parameters['observer.clock_tolerance'] * NANOSECONDS)
 
     def _now_ns(self) -> int:
-        return self.get_clock().now().nanoseconds
+        now = self.get_clock().now().nanoseconds
+        self._clock_floor = (now, time.monotonic_ns())
+        return now
+
+    def _clock_for(self, stamp_ns: int) -> Optional[int]:
+        """
+        Return a node-clock reading good enough to judge ``stamp_ns`` against the tolerance.
+
+        Reading the clock costs more than the rest of an update, so a reading at most
+        :data:`CLOCK_REUSE_NS` old is used while the stamp is within the tolerance of it:
+        the clock has only moved on since, so the stamp is within the tolerance of now too.
+        Otherwise the clock is read again (a backward ``/clock`` jump is seen within that
+        time).
+        """
+        tolerance = self.stream.clock_tolerance_ns
+        if not tolerance:
+            return None  # the check is off
+        floor, taken = self._clock_floor
+        if (stamp_ns - floor <= tolerance
+                and time.monotonic_ns() - taken < CLOCK_REUSE_NS):
+            return floor
+        return self._now_ns()
 
     def _decode(self, topic: str, message):
         try:
-            stamp, vector = self.codecs[topic].decode(message)
+            stamp, vector = self.codecs[topic].decode_values(message)
         except MalformedMessage as e:
             self.node_counters['malformed'] += 1
             self.warn_once(f'malformed {topic}', f'dropped a malformed message: {e}')
@@ -126,14 +153,29 @@ class ObserverNode(ConfiguredNode):
 
     def _on_measurement(self, message) -> None:
         stamp, y = self._decode('y', message)
-        if y is not None:
-            self._run(self.stream.add_measurement, stamp, y, self._now_ns(),
-                      self.steady_clock.now().nanoseconds)
+        if y is None:
+            return
+        now = self._clock_for(stamp)
+        if len(y) == 1:  # the steady one-output case: the same numbers, fewer steps
+            result = self.stream.add_steady_measurement(stamp, y[0], now)
+            if result is not None:
+                self._publish_steady(stamp, result)
+                return
+        self._run(self.stream.add_measurement, stamp, np.array(y), now, time.monotonic_ns())
 
     def _on_input(self, message) -> None:
         stamp, u = self._decode('u', message)
         if u is not None:
-            self._run(self.stream.add_input, stamp, u, self._now_ns())
+            self._run(self.stream.add_input, stamp, np.array(u), self._clock_for(stamp))
+
+    def _publish_steady(self, stamp: int, result: list) -> None:
+        """Publish ``[x_hat..., innovation...]`` of a steady step (x_hat first)."""
+        if not result:
+            self._publish([])
+            return
+        n = self.stream.estimator.n_states
+        self.x_hat_publisher.publish(self.codecs['x_hat'].encode(stamp, result[:n]))
+        self._publish_rest([(stamp, result[n:], self.stream.estimator.covariance)])
 
     def _on_wait_expired(self) -> None:
         self.wait_timer.cancel()
@@ -164,7 +206,7 @@ class ObserverNode(ConfiguredNode):
         sequence, arrival = waiting
         if sequence == self._waiting_for:
             return
-        remaining = arrival + self.input_wait_ns - self.steady_clock.now().nanoseconds
+        remaining = arrival + self.input_wait_ns - time.monotonic_ns()
         if remaining <= 0:
             self._on_wait_expired()
             return
@@ -174,17 +216,24 @@ class ObserverNode(ConfiguredNode):
         self.wait_timer.reset()
 
     def _publish(self, samples) -> None:
+        for sample in samples:  # x_hat first: a controller waits for it
+            self.x_hat_publisher.publish(
+                self.codecs['x_hat'].encode(sample.stamp_ns, sample.estimate))
+        self._publish_rest([(s.stamp_ns, s.innovation, s.covariance) for s in samples])
+
+    def _publish_rest(self, samples) -> None:
+        """Publish what follows x_hat: events, innovation, covariance; prepare the next."""
         for kind, text in self.stream.events:
             self.warn_once(kind, text)
         self.stream.events.clear()
-        for sample in samples:
-            self.x_hat_publisher.publish(
-                self.codecs['x_hat'].encode(sample.stamp_ns, sample.estimate))
+        for stamp, innovation, covariance in samples:
             self.innovation_publisher.publish(
-                self.codecs['innovation'].encode(sample.stamp_ns, sample.innovation))
-            if self.covariance_publisher is not None and sample.covariance is not None:
+                self.codecs['innovation'].encode(stamp, innovation))
+            if self.covariance_publisher is not None and covariance is not None:
                 self.covariance_publisher.publish(
-                    Float64MultiArray(data=sample.covariance.ravel().tolist()))
+                    Float64MultiArray(data=covariance.ravel().tolist()))
+        if samples:
+            self.stream.prepare()  # the next step's known part, now that x_hat is out
 
     def _on_reset(self, request, response):
         self.stream.reset()

@@ -35,7 +35,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from observer_ros.bags.cdr import (
-    DecodeError, HEADER, MessageReader, MessageWriter, ORIGIN, STAMP)
+    DecodeError, HEADER, MessageReader, MessageWriter)
 from observer_ros.core.config import System
 
 MESSAGE_CLASSES = {'joint_state': JointState, 'float64_multi_array': Float64MultiArray}
@@ -172,37 +172,41 @@ class VectorCodec:
             that is no time (``nanosec >= 1e9``, negative ``sec``).
 
         """
+        stamp, values = self.decode_values(message)
+        return stamp, np.array(values, dtype=float)
+
+    def decode_values(self, message) -> tuple[Optional[int], list]:
+        """Return what :meth:`decode` does, the values as a list of floats (no array)."""
         if isinstance(message, bytes):
             if message[:2] != HEADER[:2]:  # big-endian or exotic: the general deserializer
-                return self.decode(self._deserialize(message))
+                return self.decode_values(self._deserialize(message))
             try:
-                stamp, values = self._reader.read(message)
+                seconds, nanoseconds, values = self._reader.read_parts(message)
             except DecodeError as e:
                 raise MalformedMessage(f'{self.topic}: {e}') from None
-            if self.stamped:
-                self._check_stamp(*STAMP.unpack_from(message, ORIGIN))
-            vector = np.array(values, dtype=float)
-            stamp = stamp or None
+            if self.stamped and (seconds < 0 or nanoseconds >= NANOSECONDS):
+                self._check_stamp(seconds, nanoseconds)
+            stamp = seconds * NANOSECONDS + nanoseconds or None
         elif self.kind == 'float64_multi_array':
-            data = message.data
-            if len(data) != self.size:
+            values = [float(value) for value in message.data]
+            if len(values) != self.size:
                 raise MalformedMessage(
-                    f'{self.topic}: expected {self.size} values in data, got {len(data)}')
-            vector = np.array(data, dtype=float)
+                    f'{self.topic}: expected {self.size} values in data, got {len(values)}')
             stamp = None
         else:
-            values = getattr(message, self.field)
-            if len(values) != len(message.name):
+            given = getattr(message, self.field)
+            if len(given) != len(message.name):
                 raise MalformedMessage(
                     f'{self.topic}: JointState has {len(message.name)} names but '
-                    f'{len(values)} {self.field} values')
-            order = self._order(message.name)
-            vector = np.array([values[i] for i in order], dtype=float)
+                    f'{len(given)} {self.field} values')
+            values = [float(given[i]) for i in self._order(message.name)]
             self._check_stamp(message.header.stamp.sec, message.header.stamp.nanosec)
             stamp = stamp_to_ns(message.header.stamp) or None
-        if not all(math.isfinite(value) for value in vector):
-            raise MalformedMessage(f'{self.topic}: non-finite value in {vector.tolist()}')
-        return stamp, vector
+        # One sum proves every value finite (NaN and infinities propagate); only an
+        # overflowing sum of finite values needs the value-by-value check.
+        if not math.isfinite(sum(values)) and not all(map(math.isfinite, values)):
+            raise MalformedMessage(f'{self.topic}: non-finite value in {values}')
+        return stamp, values
 
     def _check_stamp(self, seconds: int, nanoseconds: int) -> None:
         problem = stamp_problem(seconds, nanoseconds)

@@ -23,7 +23,7 @@ a steady rate costs one matrix-vector product per update and jittered stamps sta
 """
 
 from collections import OrderedDict
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 import math
 from typing import Optional
 
@@ -54,6 +54,10 @@ class StepMatrices:
     g : numpy.ndarray, shape (n + p, n + m + p)
         ``[x_hat_new; innovation] = g @ [x_hat_prev; u; y]``; the innovation is
         ``y - C x_hat_prior`` with the prediction ``x_hat_prior = Ad x_hat_prev + Bd u``.
+        The estimators evaluate it as ``g_known @ [x_hat_prev; u] + g_y @ y`` (see
+        :func:`output_term`), so that the first product can be made before ``y`` arrives.
+    g_known, g_y : numpy.ndarray, shapes (n + p, n + m) and (n + p, p)
+        The columns of ``g`` for ``[x_hat_prev; u]`` and for ``y`` (made from ``g``).
     error : numpy.ndarray, shape (n, n)
         Designed error dynamics ``e_new = error @ e_prev`` (``e = x - x_hat``).
     poles : numpy.ndarray of complex
@@ -67,6 +71,25 @@ class StepMatrices:
     error: np.ndarray
     poles: np.ndarray
     covariance: Optional[np.ndarray] = None
+    g_known: np.ndarray = field(init=False, repr=False)
+    g_y: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        split = self.g.shape[1] - (self.g.shape[0] - self.error.shape[0])
+        object.__setattr__(self, 'g_known', np.ascontiguousarray(self.g[:, :split]))
+        object.__setattr__(self, 'g_y', np.ascontiguousarray(self.g[:, split:]))
+
+
+def output_term(g_y: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """
+    Return ``g_y @ y``, the measurement's part of a step, the same way on every path.
+
+    With one output it is an elementwise product (no sum, so exact whatever computes it);
+    the batch replay forms it for many samples at once and stays equal bit for bit.
+    """
+    if g_y.shape[1] == 1:
+        return g_y[:, 0] * y[0]
+    return g_y @ y
 
 
 def assemble_step(error: np.ndarray, input_gain: np.ndarray, output_gain: np.ndarray,
@@ -182,6 +205,7 @@ class Estimator:
 
     def __init__(self, design: StepDesign, initial_state=None,
                  cache_size: int = DEFAULT_CACHE_SIZE, interval_resolution_ns: int = 0) -> None:
+        self._fresh: Optional[list] = None  # see advance_prepared
         self.design = design
         model = design.model
         self.n_states, self.n_inputs = model.n_states, model.n_inputs
@@ -200,7 +224,52 @@ class Estimator:
         self._x = self._start.copy()
         self._innovation = np.zeros(self.n_outputs)
         self._step: Optional[StepMatrices] = None
-        self._buffer = np.zeros(self.n_states + self.n_inputs + self.n_outputs)
+        self._buffer = np.zeros(self.n_states + self.n_inputs)
+        self._prepared: Optional[tuple] = None
+        self._result: Optional[np.ndarray] = None
+
+    # The state, the innovation and the last step's [x; innovation]. A prepared step
+    # (advance_prepared) leaves them as a list of floats; they become arrays when first read,
+    # which keeps array building out of the time between a measurement and its estimate.
+
+    def _materialize(self) -> None:
+        fresh = self._fresh
+        if fresh is not None:
+            self._fresh = None
+            array = np.array(fresh)
+            n = self.n_states
+            self.__dict__.update(_x_array=array[:n], _innovation_array=array[n:],
+                                 _result_array=array)
+
+    @property
+    def _x(self) -> np.ndarray:
+        self._materialize()
+        return self._x_array
+
+    @_x.setter
+    def _x(self, value) -> None:
+        self._materialize()
+        self._x_array = value
+
+    @property
+    def _innovation(self) -> np.ndarray:
+        self._materialize()
+        return self._innovation_array
+
+    @_innovation.setter
+    def _innovation(self, value) -> None:
+        self._materialize()
+        self._innovation_array = value
+
+    @property
+    def _result(self) -> Optional[np.ndarray]:
+        self._materialize()
+        return self._result_array
+
+    @_result.setter
+    def _result(self, value) -> None:
+        self._materialize()
+        self._result_array = value
 
     @staticmethod
     def _vector(name: str, values, size: int, default_zero: bool = False) -> np.ndarray:
@@ -241,6 +310,11 @@ class Estimator:
         return self._innovation.copy()
 
     @property
+    def result(self) -> Optional[np.ndarray]:
+        """``[x_hat; innovation]`` of the last step (not a copy: never modified), or None."""
+        return self._result
+
+    @property
     def stamp_ns(self) -> Optional[int]:
         """Stamp of the last accepted sample, None before the first one."""
         return self._stamp
@@ -269,7 +343,7 @@ class Estimator:
             self._resolution_ns = value
             self._cache.clear()
             self._recent.clear()
-            self._last_dt_ns = self._last_step_matrices = None
+            self._last_dt_ns = self._last_step_matrices = self._prepared = None
 
     def recent_intervals(self) -> list:
         """
@@ -345,6 +419,7 @@ class Estimator:
             else:
                 self._x = least_norm_consistent(self.design.model.c, prior, y)
             self._innovation = y - self.design.model.c @ prior
+            self._result = None
             self._stamp = stamp_ns
             return self._x
         dt_ns = stamp_ns - self._stamp
@@ -352,17 +427,76 @@ class Estimator:
             raise StampError(
                 f'stamp {stamp_ns} ns is not after the previous sample ({self._stamp} ns)')
         step = self.step_matrices(dt_ns)
-        buffer = self._buffer
-        n, m = self.n_states, self.n_inputs
-        buffer[:n] = self._x
-        buffer[n:n + m] = u
-        buffer[n + m:] = y
-        result = step.g @ buffer
+        n = self.n_states
+        prepared = self._prepared
+        if (prepared is not None and prepared[0] is self._x and prepared[1] is u
+                and prepared[2] is step):
+            known = prepared[3]
+        else:
+            known = self._known_part(step, u)
+        self._prepared = None
+        result = known + output_term(step.g_y, y)
+        self._result = result
         self._x = result[:n]
         self._innovation = result[n:]
         self._stamp = stamp_ns
         self._step = step
         return self._x
+
+    def _known_part(self, step: StepMatrices, u: np.ndarray) -> np.ndarray:
+        buffer = self._buffer
+        n = self.n_states
+        buffer[:n] = self._x
+        buffer[n:] = u
+        return step.g_known @ buffer
+
+    def prepare(self, u: np.ndarray, limits: Optional[tuple] = None) -> None:
+        """
+        Make the next step's product with the estimate and the input ``u`` now.
+
+        For an input known before the measurement that ends its interval: the next
+        :meth:`advance` with this ``u`` (the same array) over an interval of the last
+        length only adds the measurement's part. The result is the same either way.
+        ``limits``, ``(largest |y|, largest |result entry|)``, lets
+        :meth:`advance_prepared` say whether every ``y`` within the first keeps the result
+        within the second.
+        """
+        step = self._last_step_matrices
+        if self._stamp is None or step is None:
+            return
+        prepared = self._prepared
+        if prepared is not None and prepared[0] is self._x and prepared[1] is u:
+            return
+        known = self._known_part(step, u)
+        floats, bounded = None, False
+        if self.n_outputs == 1:  # for advance_prepared: the same sums on Python floats
+            floats = (known.tolist(), step.g_y[:, 0].tolist())
+            if limits is not None:
+                reach = np.abs(known) + np.abs(step.g_y[:, 0]) * limits[0]
+                bounded = bool(np.isfinite(reach).all() and reach.max() <= limits[1])
+        self._prepared = (self._x, u, step, known, self._last_dt_ns, floats, bounded)
+
+    def advance_prepared(self, stamp_ns: int, y: float, u: np.ndarray) -> Optional[tuple]:
+        """
+        Return ``([x_hat..., innovation...], bounded)`` of a prepared step, or None.
+
+        The steady case of :meth:`advance` for one output: :meth:`prepare` was called with
+        this ``u`` (the same array) and the interval has the last length. The numbers, as
+        Python floats, are those :meth:`advance` gives (the same products and sums).
+        ``bounded``: the result is known to lie within the limits given to :meth:`prepare`
+        for any ``y`` within them. None when the steady case does not hold; the estimator
+        is then untouched.
+        """
+        prepared = self._prepared
+        if (prepared is None or prepared[5] is None or prepared[0] is not self._x
+                or prepared[1] is not u or stamp_ns - self._stamp != prepared[4]
+                or prepared[2] is not self._last_step_matrices):
+            return None
+        known, g_y = prepared[5]
+        result = [k + g * y for k, g in zip(known, g_y)]  # known + output_term(g_y, [y])
+        self._fresh = result  # x, innovation and result, as arrays when read
+        self._stamp, self._step, self._prepared = stamp_ns, prepared[2], None
+        return result, prepared[6]
 
     def advance_many(self, stamps_ns: np.ndarray, outputs: np.ndarray,
                      inputs: np.ndarray) -> tuple:
@@ -387,17 +521,25 @@ class Estimator:
             return results[:, :n], results[:, n:]
         results[0, :n] = self.advance(int(stamps_ns[0]), outputs[0], inputs[0])
         results[0, n:] = self._innovation
-        work = np.empty((count, n + m + self.n_outputs))
-        work[:, n:n + m] = inputs
-        work[:, n + m:] = outputs
-        steps = [self.step_matrices(dt).g for dt in np.diff(stamps_ns).tolist()]
-        dot = np.dot
+        work = np.empty((count, n + m))
+        work[:, n:] = inputs
+        steps = [self.step_matrices(dt) for dt in np.diff(stamps_ns).tolist()]
+        if steps and all(step is steps[0] for step in steps) and self.n_outputs == 1:
+            terms = outputs[:, :1] * steps[0].g_y[:, 0]  # output_term for every sample
+        else:
+            terms = [output_term(step.g_y, y) for step, y in zip(steps, outputs[1:])]
+            terms.insert(0, None)
+        dot, add = np.dot, np.add
+        known = np.empty(n + self.n_outputs)
         for k in range(1, count):
             work[k, :n] = results[k - 1, :n]
-            dot(steps[k - 1], work[k], out=results[k])
+            dot(steps[k - 1].g_known, work[k], out=known)
+            add(known, terms[k], out=results[k])
+        self._prepared = None
         if count > 1:
             self._x = results[-1, :n].copy()
             self._innovation = results[-1, n:].copy()
+            self._result = None
             self._stamp = int(stamps_ns[-1])
             self._step = self.step_matrices(int(stamps_ns[-1] - stamps_ns[-2]))
         return results[:, :n], results[:, n:]
@@ -414,6 +556,7 @@ class Estimator:
         self._start, self._start_pinned = self._initial_prior()
         self._x = self._start.copy()
         self._innovation = np.zeros(self.n_outputs)
+        self._result = None
         self._stamp = None
         self._step = None
 
@@ -437,6 +580,7 @@ class Estimator:
         """Return to a state taken by :meth:`snapshot` (the design and cache are kept)."""
         x, innovation, self._stamp, self._step, start, self._start_pinned = state
         self._x, self._innovation, self._start = x.copy(), innovation.copy(), start.copy()
+        self._result = self._prepared = None
 
     def replace_design(self, design: StepDesign) -> None:
         """Switch to new gains keeping the estimate and stamps (no jump in ``x_hat``)."""
@@ -445,7 +589,7 @@ class Estimator:
             raise ValueError('replace_design: the new design has other dimensions')
         self.design = design
         self._cache.clear()
-        self._last_dt_ns = self._last_step_matrices = None
+        self._last_dt_ns = self._last_step_matrices = self._prepared = None
 
     def run(self, stamps_ns, outputs, inputs) -> np.ndarray:
         """
