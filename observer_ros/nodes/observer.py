@@ -57,6 +57,7 @@ class ObserverNode(ConfiguredNode):
         self.codecs = {topic: VectorCodec.for_topic(system, topic)
                        for topic in ('y', 'u', 'x_hat', 'innovation')}
         self.stream = system.make_stream()
+        self.n_states, self.x_hat_codec = system.model.n_states, self.codecs['x_hat']
         self.node_counters: Counter = Counter()
         self.x_hat_publisher = self._publisher('x_hat')
         self.innovation_publisher = self._publisher('innovation')
@@ -173,8 +174,8 @@ class ObserverNode(ConfiguredNode):
         if not result:
             self._publish([])
             return
-        n = self.stream.estimator.n_states
-        self.x_hat_publisher.publish(self.codecs['x_hat'].encode(stamp, result[:n]))
+        n = self.n_states
+        self.x_hat_publisher.publish(self.x_hat_codec.encode(stamp, result[:n]))
         self._publish_rest([(stamp, result[n:], self.stream.estimator.covariance)])
 
     def _on_wait_expired(self) -> None:

@@ -129,8 +129,8 @@ class VectorCodec:
             The stamp does not fit ``builtin_interfaces/Time`` (see :data:`LATEST_STAMP_NS`).
 
         """
-        if self.stamped:
-            check_publishable_stamp(stamp_ns)
+        if self.stamped and not 0 <= stamp_ns <= LATEST_STAMP_NS:
+            check_publishable_stamp(stamp_ns)  # raises, saying why
         return self._writer.write(stamp_ns, vector)
 
     def message(self, stamp_ns: int, vector) -> object:

@@ -73,23 +73,28 @@ class StepMatrices:
     covariance: Optional[np.ndarray] = None
     g_known: np.ndarray = field(init=False, repr=False)
     g_y: np.ndarray = field(init=False, repr=False)
+    g_y_column: Optional[np.ndarray] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         split = self.g.shape[1] - (self.g.shape[0] - self.error.shape[0])
+        g_y = np.ascontiguousarray(self.g[:, split:])
         object.__setattr__(self, 'g_known', np.ascontiguousarray(self.g[:, :split]))
-        object.__setattr__(self, 'g_y', np.ascontiguousarray(self.g[:, split:]))
+        object.__setattr__(self, 'g_y', g_y)
+        object.__setattr__(self, 'g_y_column',
+                           np.ascontiguousarray(g_y[:, 0]) if g_y.shape[1] == 1 else None)
 
 
-def output_term(g_y: np.ndarray, y: np.ndarray) -> np.ndarray:
+def output_term(step: StepMatrices, y: np.ndarray) -> np.ndarray:
     """
     Return ``g_y @ y``, the measurement's part of a step, the same way on every path.
 
     With one output it is an elementwise product (no sum, so exact whatever computes it);
     the batch replay forms it for many samples at once and stays equal bit for bit.
     """
-    if g_y.shape[1] == 1:
-        return g_y[:, 0] * y[0]
-    return g_y @ y
+    column = step.g_y_column
+    if column is not None:
+        return column * y[0]
+    return step.g_y @ y
 
 
 def assemble_step(error: np.ndarray, input_gain: np.ndarray, output_gain: np.ndarray,
@@ -435,7 +440,7 @@ class Estimator:
         else:
             known = self._known_part(step, u)
         self._prepared = None
-        result = known + output_term(step.g_y, y)
+        result = known + output_term(step, y)
         self._result = result
         self._x = result[:n]
         self._innovation = result[n:]
@@ -470,9 +475,9 @@ class Estimator:
         known = self._known_part(step, u)
         floats, bounded = None, False
         if self.n_outputs == 1:  # for advance_prepared: the same sums on Python floats
-            floats = (known.tolist(), step.g_y[:, 0].tolist())
+            floats = (known.tolist(), step.g_y_column.tolist())
             if limits is not None:
-                reach = np.abs(known) + np.abs(step.g_y[:, 0]) * limits[0]
+                reach = np.abs(known) + np.abs(step.g_y_column) * limits[0]
                 bounded = bool(np.isfinite(reach).all() and reach.max() <= limits[1])
         self._prepared = (self._x, u, step, known, self._last_dt_ns, floats, bounded)
 
@@ -493,7 +498,7 @@ class Estimator:
                 or prepared[2] is not self._last_step_matrices):
             return None
         known, g_y = prepared[5]
-        result = [k + g * y for k, g in zip(known, g_y)]  # known + output_term(g_y, [y])
+        result = [k + g * y for k, g in zip(known, g_y)]  # known + output_term(step, [y])
         self._fresh = result  # x, innovation and result, as arrays when read
         self._stamp, self._step, self._prepared = stamp_ns, prepared[2], None
         return result, prepared[6]
@@ -525,9 +530,9 @@ class Estimator:
         work[:, n:] = inputs
         steps = [self.step_matrices(dt) for dt in np.diff(stamps_ns).tolist()]
         if steps and all(step is steps[0] for step in steps) and self.n_outputs == 1:
-            terms = outputs[:, :1] * steps[0].g_y[:, 0]  # output_term for every sample
+            terms = outputs[:, :1] * steps[0].g_y_column  # output_term for every sample
         else:
-            terms = [output_term(step.g_y, y) for step, y in zip(steps, outputs[1:])]
+            terms = [output_term(step, y) for step, y in zip(steps, outputs[1:])]
             terms.insert(0, None)
         dot, add = np.dot, np.add
         known = np.empty(n + self.n_outputs)
