@@ -25,7 +25,7 @@ trust the noisy measurement, slow poles the model: the trade-off the course note
 import numpy as np
 
 from benchmarks.common import CONFIG_DIR, pyplot, Section
-from observer_ros.core.config import load_parameter_file, validate_parameters
+from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.design.chen import design_chen
 from observer_ros.core.design.full_order import design_full_order
 from observer_ros.core.design.reduced_order import design_reduced_order

@@ -31,7 +31,7 @@ import numpy as np
 from benchmarks.common import CONFIG_DIR, pyplot, Section, timed
 from observer_ros.bags.replay import replay_bag, write_replay
 from observer_ros.bags.storage import STORAGES, TopicToWrite, write_bag
-from observer_ros.core.config import load_parameter_file, validate_parameters
+from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.streaming import StreamEstimator
 
 PERIOD_NS = 10_000_000

@@ -20,7 +20,7 @@ from rosbags.typesys import get_typestore, Stores
 import yaml
 
 from conftest import CONFIG_DIR
-from observer_ros.core.config import load_parameter_file, validate_parameters
+from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.simulation import PlantSimulator
 
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)

@@ -29,7 +29,7 @@ from observer_ros.bags.mcap import McapError, read_mcap_topics
 from observer_ros.bags.replay import replay_bag, write_replay
 from observer_ros.bags.storage import (
     _mcap_files, BagError, read_topic, read_topics, TopicRequest, TopicToWrite, write_bag)
-from observer_ros.core.config import load_parameter_file, validate_parameters
+from observer_ros.config import load_parameter_file, validate_parameters
 from ros_support import run_lockstep
 
 STORAGES = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}

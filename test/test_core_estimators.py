@@ -39,7 +39,7 @@ from observer_ros.core.design.full_order import design_full_order
 from observer_ros.core.design.kalman import design_kalman
 from observer_ros.core.design.reduced_order import design_reduced_order
 from observer_ros.core.errors import StampError
-from observer_ros.core.estimators import make_estimator, step_design_for
+from observer_ros.core.estimators import make_estimator
 from observer_ros.core.estimators.base import Estimator
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.simulation import PlantSimulator
@@ -487,7 +487,7 @@ def test_replace_design_keeps_estimate_continuous(plant, reduced_design):
         estimator.update(k * dt_ns, simulator.measure(), [0.0])
     before, stamp = estimator.estimate, estimator.stamp_ns
     faster = design_reduced_order(plant, poles=[-20, -20, -20], coordinates='observability')
-    estimator.replace_design(step_design_for(faster))
+    estimator.adopt(make_estimator(faster))
     np.testing.assert_array_equal(estimator.estimate, before)
     assert estimator.stamp_ns == stamp
     # The next interval runs the new design from the old estimate: no jump.
@@ -503,7 +503,7 @@ def test_replace_design_keeps_estimate_continuous(plant, reduced_design):
     other = design_full_order(StateSpaceModel.from_flat([-1, 0, 0, -2], [1, 1], [1, 1]),
                               poles=[-3, -4])
     with pytest.raises(ValueError, match='other dimensions'):
-        estimator.replace_design(step_design_for(other))
+        estimator.adopt(make_estimator(other))
 
 
 def test_run_equals_update_loop(plant, reduced_design):
@@ -535,7 +535,7 @@ def test_cache_hit_at_steady_rate(plant, reduced_design):
 
 
 def test_cache_evicts_least_recently_used(plant, reduced_design):
-    estimator = Estimator(step_design_for(reduced_design), cache_size=2)
+    estimator = Estimator(make_estimator(reduced_design).design, cache_size=2)
     a = estimator.step_matrices(10_000_000)
     b = estimator.step_matrices(20_000_000)
     assert estimator.step_matrices(10_000_000) is a

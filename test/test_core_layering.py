@@ -12,26 +12,46 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The core is ROS-free: importing every core module loads no rclpy and no ROS messages."""
+"""
+The layers: the core imports nothing else of the package and no ROS; the schema no ROS.
+
+``observer_ros.core`` is a library; ``observer_ros.config`` (the parameter schema) sits on it.
+"""
 
 import pkgutil
 import subprocess
 import sys
 
+import observer_ros.config
 import observer_ros.core
 
+ROS = ('rclpy', 'std_msgs', 'sensor_msgs', 'rosgraph_msgs', 'diagnostic_msgs')
 
-def test_core_imports_no_ros():
-    modules = [info.name for info in pkgutil.walk_packages(observer_ros.core.__path__,
-                                                           'observer_ros.core.')]
-    assert 'observer_ros.core.config' in modules and len(modules) > 10
+
+def imported_by(package) -> tuple:
+    """Import ``package`` whole in a new interpreter: its modules, ours and ROS's loaded."""
+    modules = [info.name for info in pkgutil.walk_packages(package.__path__,
+                                                           package.__name__ + '.')]
     script = (
         'import importlib, sys\n'
         f'for name in {modules!r}:\n'
         '    importlib.import_module(name)\n'
-        "ros = sorted(m for m in sys.modules if m.split('.')[0] in "
-        "('rclpy', 'std_msgs', 'sensor_msgs', 'rosgraph_msgs', 'diagnostic_msgs'))\n"
-        'print(ros)\n')
+        'print(sorted(m for m in sys.modules if m.startswith("observer_ros.")))\n'
+        f'print(sorted(m for m in sys.modules if m.split(".")[0] in {ROS!r}))\n')
     result = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True,
                             check=True)
-    assert result.stdout.strip() == '[]'
+    package_modules, ros = (eval(line) for line in result.stdout.splitlines())
+    return modules, package_modules, ros
+
+
+def test_the_core_imports_no_ros_and_nothing_outside_the_core():
+    modules, loaded, ros = imported_by(observer_ros.core)
+    assert 'observer_ros.core.streaming' in modules and len(modules) > 10
+    assert ros == []
+    assert [name for name in loaded if not name.startswith('observer_ros.core')] == []
+
+
+def test_the_parameter_schema_imports_no_ros():
+    modules, _, ros = imported_by(observer_ros.config)
+    assert 'observer_ros.config.system' in modules
+    assert ros == []

@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from conftest import CONFIG_DIR, console_script
-from observer_ros.core.config import load_parameter_file, PARAMETERS, validate_parameters
+from observer_ros.config import load_parameter_file, PARAMETERS, validate_parameters
 from observer_ros.core.errors import ConfigError
 
 

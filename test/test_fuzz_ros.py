@@ -34,7 +34,7 @@ from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
 
 from conftest import CONFIG_DIR
-from observer_ros.core.config import (
+from observer_ros.config import (
     DOUBLE, FEEDBACK, INTEGER, load_parameter_file, node_parameters, OBSERVER,
     PARAMETER_SPECS, STRING, STRING_ARRAY, validate_parameters)
 from observer_ros.core.errors import ConfigError, DesignError

@@ -17,7 +17,7 @@
 import re
 
 from conftest import console_scripts, REPOSITORY
-from observer_ros.core.config import parameter_table, PARAMETERS
+from observer_ros.config import parameter_table, PARAMETERS
 
 README = (REPOSITORY / 'README.md').read_text(encoding='utf-8')
 
@@ -28,7 +28,7 @@ def test_every_parameter_is_documented_with_its_default():
 
 
 def test_parameter_table_is_the_generated_one():
-    # Regenerate with: python -c "from observer_ros.core.config import parameter_table as t;
+    # Regenerate with: python -c "from observer_ros.config import parameter_table as t;
     # print(t())" and paste it over README's table.
     assert parameter_table() in README
 

@@ -33,7 +33,7 @@ from std_srvs.srv import Trigger
 
 from bag_support import float64_array, joint_state as joint_state_cdr, serialize, TYPESTORE
 from conftest import CONFIG_DIR
-from observer_ros.core.config import load_parameter_file, validate_parameters
+from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.streaming import StreamEstimator
 from observer_ros.nodes.observer import ObserverNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode

@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 from conftest import CONFIG_DIR, console_script, REPOSITORY
-from observer_ros.core.config import load_parameter_file, validate_parameters
+from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.evaluation import align, decay_rate, settling_time
 from observer_ros.ros.parameters import EXECUTORS
 from observer_ros.ros.recorder import TopicRecorder

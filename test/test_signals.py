@@ -33,7 +33,7 @@ import pytest
 
 from bag_support import write_robot_bag
 from conftest import CONFIG_DIR, console_script
-from observer_ros.core.config import load_parameter_file, validate_parameters
+from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.ros.recorder import TopicRecorder
 from ros_support import executor_with, ros_context, spin_until
 

@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 from conftest import CONFIG_DIR
-from observer_ros.core.config import (
+from observer_ros.config import (
     DOUBLE, INTEGER, load_parameter_file, PARAMETERS, validate_parameters)
 from observer_ros.core.design.full_order import design_full_order
 from observer_ros.core.errors import ConfigError
@@ -113,7 +113,7 @@ def test_a_number_outside_its_range_is_refused_naming_the_parameter(spec):
     ('feedback.timeout', 1e-9, r'^feedback\.timeout: expected seconds'),
     ('observer.chen_seed', -1, r'^observer\.chen_seed: expected a seed in \[0, '),
     ('plant.seed', -1, r'^plant\.seed: expected a seed'),
-    ('plant.rate_hz', 1e-300, r'^plant\.rate_hz: expected a rate in Hz'),
+    ('plant.rate_hz', 1e-300, r'^plant\.rate_hz: expected 0 \(the model rate\) or a rate'),
     ('observer.poles', ['zeta=nan, wn=10'], r'^observer\.poles: damping ratio'),
     ('feedback.poles', ['zeta=0.5, wn=nan'], r'^feedback\.poles: damping ratio'),
     ('feedback.poles', ['zeta=-1, wn=3'], r'^feedback\.poles: expected zeta >= 0'),

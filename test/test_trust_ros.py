@@ -32,7 +32,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
 from conftest import CONFIG_DIR, REPOSITORY
-from observer_ros.core.config import load_parameter_file, validate_parameters
+from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.nodes.observer import ObserverNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.parameters import EXECUTORS, make_executor

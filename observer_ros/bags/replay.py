@@ -36,7 +36,7 @@ import numpy as np
 from observer_ros.bags.storage import (
     absolute_topic, BagError, read_topics, STORAGES, TopicData, TopicRequest, TopicToWrite,
     write_bag)
-from observer_ros.core.config import load_parameter_file, System, validate_parameters
+from observer_ros.config import load_parameter_file, System, validate_parameters
 from observer_ros.core.evaluation import align
 
 NANOSECONDS = 1_000_000_000

@@ -14,6 +14,8 @@
 
 """Exact sampling of continuous-time models: zero-order hold and Van Loan's method."""
 
+from typing import Optional
+
 import numpy as np
 import scipy.linalg
 
@@ -80,3 +82,54 @@ def van_loan(a: np.ndarray, process_noise: np.ndarray, dt: float) -> np.ndarray:
     ad_transpose = exponential[n_states:, n_states:]
     qd = ad_transpose.T @ exponential[:n_states, n_states:]
     return 0.5 * (qd + qd.T)
+
+
+def transition(model, dt: float, process_noise: Optional[np.ndarray] = None) -> tuple:
+    """
+    Return ``(Ad, Bd, Qd)``: the model over ``dt`` seconds with the input held.
+
+    A continuous model is sampled exactly (zero-order hold; ``Qd`` by Van Loan's method from
+    the intensity ``process_noise``). A discrete model takes ``round(dt / model.dt)`` of its
+    periods (none for ``dt`` under half a period): ``Ad = A^k``, ``Bd = sum A^i B`` and
+    ``Qd = sum A^i Q A^i^T`` with ``Q`` its per-period covariance.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    dt : float
+        Seconds, >= 0.
+    process_noise : numpy.ndarray, shape (n, n), optional
+        ``Q``; without it ``Qd`` is None.
+
+    Returns
+    -------
+    tuple
+        ``(Ad (n, n), Bd (n, m), Qd (n, n) or None)``.
+
+    Examples
+    --------
+    >>> from observer_ros.core.model import StateSpaceModel
+    >>> model = StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> ad, bd, _ = transition(model, 0.5)
+    >>> ad.tolist(), bd.ravel().tolist()
+    ([[1.0, 0.5], [0.0, 1.0]], [0.125, 0.5])
+
+    """
+    a, b = model.a, model.b
+    n_states = a.shape[0]
+    if not model.is_discrete:
+        if dt == 0.0:
+            qd = None if process_noise is None else np.zeros((n_states, n_states))
+            return np.eye(n_states), np.zeros_like(b), qd
+        ad, bd = zero_order_hold(a, b, dt)
+        qd = None if process_noise is None else van_loan(a, process_noise, dt)
+        return ad, bd, qd
+    periods = max(0, round(dt / model.dt))
+    ad, bd = np.eye(n_states), np.zeros_like(b)
+    qd = None if process_noise is None else np.zeros((n_states, n_states))
+    for _ in range(periods):
+        bd = a @ bd + b
+        if qd is not None:
+            qd = a @ qd @ a.T + process_noise
+        ad = a @ ad
+    return ad, bd, qd

@@ -34,6 +34,7 @@ class ConfigError(ObserverRosError, ValueError):
 
     def __init__(self, parameter: str, message: str) -> None:
         self.parameter = parameter
+        self.reason = message
         super().__init__(f'{parameter}: {message}' if parameter else message)
 
 

@@ -80,7 +80,7 @@ def write_run_report(directory: str, name: str, system, truth_stamps, truth, sta
     ----------
     directory, name : str
         Where the PNG goes (``name`` without extension).
-    system : observer_ros.core.config.System
+    system : observer_ros.config.System
         Gives the state names and the designed poles (settling time, decay envelope).
     truth_stamps, truth, stamps, estimates : numpy.ndarray
         Both series; they are compared at the stamps they share.

@@ -15,9 +15,9 @@
 """
 Measurements and inputs arriving as streams: pairing by stamp and stamp hygiene.
 
-:class:`StreamEstimator` feeds an :class:`~observer_ros.core.estimators.Estimator` from two
-streams, as the observer node and the offline bag replay both do (one code path, so they
-give identical estimates). For the interval ending at measurement ``k`` the input is the
+:class:`StreamEstimator` feeds a :class:`~observer_ros.core.estimators.StateEstimator` from
+two streams, as the observer node and the offline bag replay both do (one set of rules, so
+they give identical estimates). For the interval ending at measurement ``k`` the input is the
 latest one stamped at or before measurement ``k-1``: a future input never leaks into the
 past. A measurement whose input may still be on its way waits (``pending``) until an input
 stamped at or after the previous measurement arrives, or until :meth:`flush`.
@@ -39,7 +39,7 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
-from observer_ros.core.estimators import Estimator
+from observer_ros.core.estimators import StateEstimator
 
 #: Inputs kept at most (older ones are dropped once no interval can need them).
 MAX_INPUTS = 10_000
@@ -68,21 +68,61 @@ def within_limit(vector: np.ndarray, limit: float) -> bool:
 
 
 class EstimateSample(NamedTuple):
-    """One published estimate: stamp, ``x_hat``, innovation and (Kalman) covariance."""
+    """
+    One published estimate: stamp, ``x_hat``, innovation and what a Kalman filter adds.
+
+    ``covariance`` is ``P`` of the published estimate (``(n, n)``), ``innovation_covariance``
+    the ``S`` of the innovation (``(p, p)``) and ``nis`` ``v^T S^-1 v``; None without them.
+    """
 
     stamp_ns: int
     estimate: np.ndarray
     innovation: np.ndarray
-    covariance: Optional[np.ndarray]
+    covariance: Optional[np.ndarray] = None
+    innovation_covariance: Optional[np.ndarray] = None
+    nis: Optional[float] = None
 
 
 @dataclass(frozen=True)
 class ReplayArrays:
-    """Estimates of a batch replay: stamps ``(k,)``, ``x_hat`` ``(k, n)``, innovations."""
+    """
+    Estimates of a batch replay, one row per published estimate.
+
+    Attributes
+    ----------
+    stamps_ns : numpy.ndarray of int64, shape (k,)
+    estimates : numpy.ndarray, shape (k, n)
+    innovations : numpy.ndarray, shape (k, p)
+    covariances : numpy.ndarray or None, shape (k, n, n)
+        Kalman filters: ``P`` of each estimate.
+    innovation_covariances : numpy.ndarray or None, shape (k, p, p)
+        Kalman filters: ``S`` of each innovation.
+    nis : numpy.ndarray or None, shape (k,)
+        Kalman filters: the normalised innovation squared.
+
+    """
 
     stamps_ns: np.ndarray
     estimates: np.ndarray
     innovations: np.ndarray
+    covariances: Optional[np.ndarray] = None
+    innovation_covariances: Optional[np.ndarray] = None
+    nis: Optional[np.ndarray] = None
+
+
+def replay_arrays(samples: list, n_states: int, n_outputs: int) -> ReplayArrays:
+    """Stack estimate samples into :class:`ReplayArrays` (the Kalman arrays when all have)."""
+    stamps = np.array([s.stamp_ns for s in samples], dtype=np.int64)
+    estimates = np.array([s.estimate for s in samples]).reshape(-1, n_states)
+    innovations = np.array([s.innovation for s in samples]).reshape(-1, n_outputs)
+    covariances = innovation_covariances = nis = None
+    if samples and all(s.covariance is not None for s in samples):
+        covariances = np.array([s.covariance for s in samples])
+    if samples and all(s.innovation_covariance is not None for s in samples):
+        innovation_covariances = np.array([s.innovation_covariance for s in samples])
+        nis = np.array([s.nis for s in samples], dtype=float)
+    return ReplayArrays(stamps, estimates, innovations, covariances, innovation_covariances,
+                        nis)
 
 
 class StreamEstimator:
@@ -91,7 +131,7 @@ class StreamEstimator:
 
     Parameters
     ----------
-    estimator : Estimator
+    estimator : StateEstimator
     max_gap_ns : int
         A forward gap or backward jump longer than this restarts the estimator.
     input_stamped : bool
@@ -102,6 +142,10 @@ class StreamEstimator:
         (``future_stamp``); 0 turns the check off.
     limits : ValueLimits, optional
         Magnitude limits of the values (none by default).
+    form : {'current', 'delayed'}
+        ``current``: each measurement gives ``x[k|k]``. ``delayed``: it gives the prediction
+        ``x[k+1|k]`` over the last interval with the input of the next one, once that input
+        is known (it waits for it like a measurement), stamped with the measurement.
 
     Attributes
     ----------
@@ -116,13 +160,17 @@ class StreamEstimator:
 
     """
 
-    def __init__(self, estimator: Estimator, max_gap_ns: int, input_stamped: bool = True,
-                 clock_tolerance_ns: int = 0, limits: Optional[ValueLimits] = None) -> None:
+    def __init__(self, estimator: StateEstimator, max_gap_ns: int, input_stamped: bool = True,
+                 clock_tolerance_ns: int = 0, limits: Optional[ValueLimits] = None,
+                 form: str = 'current') -> None:
+        if form not in ('current', 'delayed'):
+            raise ValueError(f"form: expected 'current' or 'delayed', got {form!r}")
         self.estimator = estimator
         self.max_gap_ns = int(max_gap_ns)
         self.input_stamped = input_stamped
         self.clock_tolerance_ns = int(clock_tolerance_ns)
         self.limits = limits or ValueLimits()
+        self.form = form
         self._counters: Counter = Counter()
         self._steady = 0  # steady measurements not yet added to the counters
         self._steady_key: Optional[tuple] = None
@@ -130,6 +178,7 @@ class StreamEstimator:
         self._input_stamps: list = []
         self._inputs: list = []
         self._pending: list = []
+        self._awaiting: Optional[tuple] = None  # delayed form: (sample, sequence, arrival)
         self._sequence = 0
         self._zero_input = np.zeros(estimator.n_inputs)
         self._inputs_absent = False
@@ -145,13 +194,16 @@ class StreamEstimator:
 
     @property
     def pending(self) -> int:
-        """Number of measurements waiting for their input."""
-        return len(self._pending)
+        """Number of measurements (and delayed estimates) waiting for their input."""
+        return len(self._pending) + (self._awaiting is not None)
 
     def reset(self) -> None:
         """Restart the estimator from its initial state; inputs are kept."""
         self.estimator.reset()
         self._pending.clear()
+        self._awaiting = None
+
+    # --- arrival rules -----------------------------------------------------------------
 
     def _acceptable(self, what: str, stamp_ns: int, vector: np.ndarray, size: int,
                     limit: float, now_ns: Optional[int]) -> bool:
@@ -170,14 +222,11 @@ class StreamEstimator:
             self.events.append(('out_of_range', f'dropped {what} {vector.tolist()}: a value '
                                 f'exceeds the limit {limit:g} in magnitude'))
             return False
-        tolerance = self.clock_tolerance_ns
-        if tolerance and now_ns and stamp_ns - now_ns > tolerance:
-            self.counters['future_stamp'] += 1
-            self.events.append(('future_stamp', f'dropped {what} stamped '
-                                f'{(stamp_ns - now_ns) / 1e9:.6g} s ahead of the clock '
-                                f'(tolerance {tolerance / 1e9:g} s)'))
-            return False
-        return True
+        self.counters['future_stamp'] += 1
+        self.events.append(('future_stamp', f'dropped {what} stamped '
+                            f'{(stamp_ns - now_ns) / 1e9:.6g} s ahead of the clock '
+                            f'(tolerance {tolerance / 1e9:g} s)'))
+        return False
 
     def add_input(self, stamp_ns: int, u, now_ns: Optional[int] = None) -> list:
         """
@@ -192,13 +241,7 @@ class StreamEstimator:
         if not self._acceptable('an input', stamp_ns, vector, self.estimator.n_inputs,
                                 self.limits.input, now_ns):
             return []
-        self._inputs_absent = False
-        index = bisect.bisect_left(self._input_stamps, stamp_ns)
-        if index < len(self._input_stamps) and self._input_stamps[index] == stamp_ns:
-            self._inputs[index] = vector
-        else:
-            self._input_stamps.insert(index, stamp_ns)
-            self._inputs.insert(index, vector)
+        self._store_input(stamp_ns, vector)
         previous = self.estimator.stamp_ns
         if previous is None or stamp_ns >= previous - self.max_gap_ns:
             self._prune()  # not while a backward jump (a looping bag) is under way
@@ -206,6 +249,31 @@ class StreamEstimator:
         if not released:
             self.prepare()
         return released
+
+    def _store_input(self, stamp_ns: int, vector: np.ndarray) -> None:
+        """Keep an input in stamp order; a repeated stamp replaces the earlier input."""
+        self._inputs_absent = False
+        index = bisect.bisect_left(self._input_stamps, stamp_ns)
+        if index < len(self._input_stamps) and self._input_stamps[index] == stamp_ns:
+            self._inputs[index] = vector
+        else:
+            self._input_stamps.insert(index, stamp_ns)
+            self._inputs.insert(index, vector)
+
+    def _store_inputs(self, stamps: np.ndarray, vectors: np.ndarray) -> None:
+        """Store many inputs at once, as :meth:`_store_input` one by one would."""
+        if self._input_stamps:
+            for stamp, vector in zip(stamps.tolist(), vectors):
+                self._store_input(stamp, vector)
+            return
+        if not len(stamps):
+            return
+        order = np.argsort(stamps, kind='stable')
+        ordered = stamps[order]
+        last = np.append(ordered[1:] != ordered[:-1], True)  # of equal stamps the later wins
+        self._input_stamps = ordered[last].tolist()
+        self._inputs = list(vectors[order][last])
+        self._inputs_absent = False
 
     def add_measurement(self, stamp_ns: int, y, now_ns: Optional[int] = None,
                         arrival_ns: int = 0) -> list:
@@ -222,12 +290,13 @@ class StreamEstimator:
         if not self._acceptable('a measurement', stamp_ns, vector, self.estimator.n_outputs,
                                 self.limits.measurement, now_ns):
             return []
-        if not self._pending:  # the common case, without the queue: same rules, same result
+        if not self._pending and self._awaiting is None:  # the common case, queue-free
             previous = self.estimator.stamp_ns
             if (previous is not None and 0 < stamp_ns - previous <= self.max_gap_ns
                     and self._ready(previous)):
-                sample = self._process(stamp_ns, vector, self._input_for(previous), previous)
-                return [] if sample is None else [sample]
+                return self._emit(self._process(stamp_ns, vector,
+                                                self._input_for(previous), previous),
+                                  arrival_ns)
         self._sequence += 1
         self._pending.append((stamp_ns, vector.copy(), self._sequence, int(arrival_ns)))
         return self._release(force=False)
@@ -239,10 +308,11 @@ class StreamEstimator:
 
         The fast path of :meth:`add_measurement` (a node calls it first): nothing waits, the
         interval follows the previous one at the same length, its input is known and the
-        estimator prepared it (:meth:`prepare`). Then the same rules give the same numbers
-        as :meth:`add_measurement` and the same counts, without building arrays. None when
-        the steady case does not hold, or the value or stamp breaks a rule: nothing was
-        changed or counted then, and :meth:`add_measurement` must take the measurement.
+        estimator prepared it (:meth:`prepare`); the current form only. Then the same rules
+        give the same numbers as :meth:`add_measurement` and the same counts, without
+        building arrays. None when the steady case does not hold, or the value or stamp
+        breaks a rule: nothing was changed or counted then, and :meth:`add_measurement` must
+        take the measurement.
         """
         key = self._steady_key  # (previous stamp, its input, time-base offset) from prepare()
         estimator = self.estimator
@@ -269,11 +339,13 @@ class StreamEstimator:
 
     def waiting(self) -> Optional[tuple]:
         """
-        ``(sequence, arrival_ns)`` of the first measurement waiting for its input, or None.
+        ``(sequence, arrival_ns)`` of the first sample waiting for its input, or None.
 
-        The sequence number tells one waiting measurement from the next; ``arrival_ns`` is
-        what was given to :meth:`add_measurement`.
+        The sequence number tells one waiting sample from the next; ``arrival_ns`` is what
+        was given to :meth:`add_measurement`.
         """
+        if self._awaiting is not None:
+            return self._awaiting[1:]
         return self._pending[0][2:] if self._pending else None
 
     def flush(self, first_only: bool = False) -> list:
@@ -283,16 +355,20 @@ class StreamEstimator:
         ``first_only``: only the first waits no longer; the ones after it are processed when
         their input is there (as :meth:`add_input` would).
         """
-        if self._pending and not self._input_stamps:
+        if (self._pending or self._awaiting is not None) and not self._input_stamps:
             self._inputs_absent = True
         return self._release(force=True, first_only=first_only)
 
+    # --- the rules -----------------------------------------------------------------------
+
     def _ready(self, previous: int) -> bool:
+        """Say whether the input of the interval after ``previous`` is known (or never comes)."""
         if not self.input_stamped or self._inputs_absent:
             return True
         return bool(self._input_stamps) and self._input_stamps[-1] >= previous
 
     def _input_for(self, previous: int) -> np.ndarray:
+        """Return the input of the interval after ``previous`` (latest at or before it)."""
         index = bisect.bisect_right(self._input_stamps, previous) - 1
         if index < 0:
             if self._input_stamps:
@@ -312,28 +388,51 @@ class StreamEstimator:
                             f'in different time bases (simulation time and wall clock, or an '
                             f'unstamped u stamped on arrival)?'))
 
+    def _interval_input(self, previous: int, force: bool) -> Optional[np.ndarray]:
+        """
+        Return the input of the interval after ``previous``, or None while it may come.
+
+        ``force``: take the latest earlier one now (counted as ``late_input`` when the
+        interval's own input is not there).
+        """
+        ready = self._ready(previous)
+        if not (force or ready):
+            return None
+        if not ready:
+            self.counters['late_input'] += 1
+        return self._input_for(previous)
+
     def _release(self, force: bool, first_only: bool = False) -> list:
+        """Process what waits, in order, as far as inputs allow (or all, with ``force``)."""
         produced = []
-        while self._pending:
-            stamp, y = self._pending[0][:2]
+        while True:
+            if self._awaiting is not None:
+                sample, _, arrival = self._awaiting
+                u = self._interval_input(sample.stamp_ns, force)
+                if u is None:
+                    break
+                self._awaiting = None
+                produced.append(self._delayed(sample, u))
+                force = force and not first_only
+                continue
+            if not self._pending:
+                break
+            stamp, y, _, arrival = self._pending[0]
             previous = self.estimator.stamp_ns
             if previous is not None and 0 < stamp - previous <= self.max_gap_ns:
-                if not (force or self._ready(previous)):
+                u = self._interval_input(previous, force)
+                if u is None:
                     break
-                if not self._ready(previous):
-                    self.counters['late_input'] += 1
-                u = self._input_for(previous)
             else:
                 u = self._zero_input
             force = force and not first_only
             self._pending.pop(0)
-            sample = self._process(stamp, y, u, previous)
-            if sample is not None:
-                produced.append(sample)
+            produced += self._emit(self._process(stamp, y, u, previous), arrival)
         return produced
 
     def _process(self, stamp: int, y: np.ndarray, u: np.ndarray,
                  previous: Optional[int]) -> Optional[EstimateSample]:
+        """Apply the stamp rules and take one measurement; the current-form sample or None."""
         if not self._admit(stamp, previous):
             return None
         estimator = self.estimator
@@ -342,7 +441,27 @@ class StreamEstimator:
         if not self._publishable(estimate, innovation, estimator.result):
             return None
         self.counters['estimates'] += 1
-        return EstimateSample(stamp, estimate, innovation, estimator.covariance)
+        covariance = estimator.innovation_covariance
+        return EstimateSample(stamp, estimate, innovation, estimator.covariance, covariance,
+                              None if covariance is None else estimator.nis)
+
+    def _emit(self, sample: Optional[EstimateSample], arrival: int) -> list:
+        """Return what a processed measurement gives now (delayed form: maybe later)."""
+        if sample is None:
+            return []
+        if self.form == 'current':
+            return [sample]
+        self._sequence += 1
+        self._awaiting = (sample, self._sequence, arrival)
+        return self._release(force=False)
+
+    def _delayed(self, sample: EstimateSample, u: np.ndarray) -> EstimateSample:
+        """Return the prediction ``x[k+1|k]`` of a current sample, with the next input ``u``."""
+        estimator = self.estimator
+        interval = estimator.last_interval_ns
+        prediction = estimator.predict(sample.stamp_ns + interval, u)
+        return sample._replace(estimate=prediction.estimate,
+                               covariance=prediction.covariance)
 
     def prepare(self) -> None:
         """
@@ -353,13 +472,14 @@ class StreamEstimator:
         """
         stamp = self.estimator.stamp_ns
         self._steady_key = None
-        if stamp is not None and not self._pending and self._ready(stamp):
+        if (stamp is not None and not self._pending and self._awaiting is None
+                and self._ready(stamp)):
             index = bisect.bisect_right(self._input_stamps, stamp) - 1
             limits = self.limits
             u = self._inputs[index] if index >= 0 else self._zero_input
             self.estimator.prepare(u, (limits.measurement, min(limits.estimate,
                                                                limits.innovation)))
-            if index >= 0:  # what the input rules of add_measurement would find and say
+            if index >= 0 and self.form == 'current':  # what add_measurement would do
                 offset = self._input_stamps[index] - stamp
                 self._steady_key = (stamp, u, offset if -offset > self.max_gap_ns else None)
 
@@ -411,18 +531,22 @@ class StreamEstimator:
             self.estimator.restart()
         return True
 
+    # --- recorded streams ------------------------------------------------------------------
+
     def replay(self, input_stamps, inputs, stamps, outputs, input_arrivals=None,
-               arrivals=None) -> 'ReplayArrays':
+               arrivals=None) -> ReplayArrays:
         """
         Run over whole recorded streams at once, as if every input had arrived in time.
 
         Gives what the node computes from the same messages when no input arrives later than
         the measurement after it (a recording played back): the same pairing and stamp
-        rules, and :meth:`Estimator.advance` for the arithmetic, so the estimates are equal
-        bit for bit. Rows with a non-finite value are dropped and counted as ``malformed``,
-        rows beyond the :class:`ValueLimits` as ``out_of_range``, and, with arrival times
-        and a clock tolerance, rows stamped too far ahead of their arrival as
-        ``future_stamp`` (the arrival time plays the receiver's clock).
+        rules (the live ones: :meth:`add_measurement` and :meth:`flush` run them), so the
+        estimates are equal bit for bit. Rows with a non-finite value are dropped and
+        counted as ``malformed``, rows beyond the :class:`ValueLimits` as ``out_of_range``,
+        and, with arrival times and a clock tolerance, rows stamped too far ahead of their
+        arrival as ``future_stamp`` (the arrival time plays the receiver's clock). An
+        estimator with a batch path (:attr:`StateEstimator.supports_batch`) runs a recording
+        without gaps or stamp faults through it, equal bit for bit to the live rules.
 
         Parameters
         ----------
@@ -435,6 +559,10 @@ class StreamEstimator:
         input_arrivals, arrivals : array_like of int, optional
             Arrival (log) times. A recording with a backward jump (a looping bag) is then
             fed message by message in arrival order, as live; without them it is refused.
+
+        Returns
+        -------
+        ReplayArrays
 
         Raises
         ------
@@ -462,52 +590,27 @@ class StreamEstimator:
                                  'give the arrival times to replay it message by message')
             return self._replay_in_arrival_order(
                 input_stamps, inputs, stamps, outputs, input_arrivals, arrivals)
+        counters = self.counters
         for key in drops:  # every kind named, zero included: replay reports them all
-            self.counters[key] += input_drops[key] + drops[key]
-        order = np.argsort(input_stamps[good_inputs], kind='stable')
-        input_stamps = input_stamps[good_inputs][order].tolist()
-        inputs = inputs[good_inputs][order]
-        self.counters['inputs'] += len(input_stamps)
-        last_input = input_stamps[-1] if input_stamps else None
-        zero = self._zero_input
+            counters[key] += input_drops[key] + drops[key]
+        counters['inputs'] += len(input_stamps)
+        counters['measurements'] += int((~good).sum())  # the dropped ones, as live
+        self._store_inputs(input_stamps[good_inputs], inputs[good_inputs])
+        if not self._input_stamps:
+            self._inputs_absent = True  # as a live flush finds it: no input will come
         measured = stamps[good]
         steps = np.diff(measured)
-        if (estimator.stamp_ns is None and len(measured) and (steps > 0).all()
-                and (steps <= self.max_gap_ns).all()):
-            steady = self._replay_steady(measured, outputs[good], np.array(input_stamps),
-                                         inputs)
+        if (estimator.supports_batch and estimator.stamp_ns is None and len(measured)
+                and (steps > 0).all() and (steps <= self.max_gap_ns).all()):
+            steady = self._replay_steady(measured, outputs[good])
             if steady is not None:
                 return steady
-        kept, estimates, innovations = [], [], []
-        find = bisect.bisect_right
-        for index in np.flatnonzero(good).tolist():
-            stamp = int(stamps[index])
-            self.counters['measurements'] += 1
-            previous = estimator.stamp_ns
-            if previous is not None and 0 < stamp - previous <= self.max_gap_ns:
-                position = find(input_stamps, previous) - 1
-                if position < 0:
-                    self.counters['late_input' if input_stamps else 'no_input'] += 1
-                    u = zero
-                else:
-                    if self.input_stamped and last_input < previous:
-                        self.counters['late_input'] += 1
-                    u = inputs[position]
-            elif not self._admit(stamp, previous):
-                continue
-            else:
-                u = zero
-            estimate = estimator.advance(stamp, outputs[index], u)
-            innovation = estimator.innovation
-            if not self._publishable(estimate, innovation):
-                continue
-            estimates.append(estimate)
-            innovations.append(innovation)
-            kept.append(stamp)
-        self.counters['estimates'] += len(kept)
-        return ReplayArrays(np.array(kept, dtype=np.int64),
-                            np.array(estimates).reshape(-1, estimator.n_states),
-                            np.array(innovations).reshape(-1, n_outputs))
+        samples = []
+        for stamp, y in zip(measured.tolist(), outputs[good]):
+            counters['measurements'] += 1
+            self._pending.append((stamp, y, 0, 0))
+            samples += self._release(force=True)  # every input is there: as live, in time
+        return replay_arrays(samples, estimator.n_states, n_outputs)
 
     def _row_filter(self, values, stamps, arrivals, limit) -> tuple:
         """Rows the value and clock rules keep, and a Counter of the dropped ones."""
@@ -526,15 +629,23 @@ class StreamEstimator:
                          'future_stamp': int(future.sum())})
         return keep, drops
 
-    def _replay_steady(self, stamps, outputs, input_stamps, inputs) -> Optional[ReplayArrays]:
-        # Every measurement is admitted, so each interval's input is known in advance: the
-        # latest input stamped at or before the previous measurement (zero before the first).
-        # None (estimator untouched) when an estimate leaves its limit: the caller then takes
-        # the sample-by-sample path, which restarts the estimator there as live.
+    def _replay_steady(self, stamps, outputs) -> Optional[ReplayArrays]:
+        """
+        Run measurements that all follow each other within the gap through the batch path.
+
+        Every measurement is admitted, so each interval's input is known in advance: the
+        latest input stamped at or before the previous measurement (zero before the first).
+        None (estimator untouched) when an estimate leaves its limit: the caller then takes
+        the sample-by-sample path, which restarts the estimator there as live.
+        """
         estimator = self.estimator
         count = len(stamps)
-        pairing = np.searchsorted(input_stamps, stamps[:-1], side='right') - 1
-        held = np.vstack([self._zero_input, inputs])[np.concatenate([[-1], pairing]) + 1]
+        input_stamps = np.array(self._input_stamps, dtype=np.int64)
+        inputs = (np.vstack(self._inputs) if self._inputs
+                  else np.zeros((0, estimator.n_inputs)))
+        pairing = np.searchsorted(input_stamps, stamps, side='right') - 1
+        stack = np.vstack([self._zero_input, inputs])
+        held = stack[np.concatenate([[-1], pairing[:-1]]) + 1]
         saved = estimator.snapshot()
         estimates, innovations = estimator.advance_many(stamps, outputs, held)
         limits = self.limits
@@ -542,19 +653,51 @@ class StreamEstimator:
                 and _rows_within(innovations, limits.innovation)):
             estimator.restore(saved)
             return None
+        counters = self.counters
         if len(input_stamps):
-            self.counters['late_input'] += int((pairing < 0).sum()) if len(pairing) else 0
+            counters['late_input'] += int((pairing[:-1] < 0).sum())
             if self.input_stamped:
-                self.counters['late_input'] += int((stamps[:-1] > input_stamps[-1]).sum())
+                counters['late_input'] += int((stamps[:-1] > input_stamps[-1]).sum())
         else:
-            self.counters['no_input'] += count - 1
-        self.counters['measurements'] += count
-        self.counters['estimates'] += count
-        return ReplayArrays(stamps.copy(), np.ascontiguousarray(estimates),
-                            np.ascontiguousarray(innovations))
+            counters['no_input'] += count - 1
+        counters['measurements'] += count
+        counters['estimates'] += count
+        covariance = estimator.covariance
+        s = estimator.innovation_covariance
+        arrays = ReplayArrays(
+            stamps.copy(), np.ascontiguousarray(estimates), np.ascontiguousarray(innovations),
+            None if covariance is None else np.broadcast_to(covariance, (count,)
+                                                            + covariance.shape),
+            None if s is None else np.broadcast_to(s, (count,) + s.shape),
+            None if s is None else np.einsum('ki,ij,kj->k', innovations, np.linalg.inv(s),
+                                             innovations))
+        if self.form == 'delayed':
+            arrays = self._delayed_rows(arrays, stamps, stack, pairing)
+        return arrays
+
+    def _delayed_rows(self, arrays: ReplayArrays, stamps, stack, pairing) -> ReplayArrays:
+        """Return batch rows in the delayed form, each predicted as :meth:`_delayed` does."""
+        estimator = self.estimator
+        intervals = np.concatenate([[0], np.diff(stamps)]).tolist()
+        counters = self.counters
+        if len(self._input_stamps) and self.input_stamped and stamps[-1] > self._input_stamps[-1]:
+            counters['late_input'] += 1  # the last row's next input: the latest earlier one
+        elif not len(self._input_stamps):
+            counters['no_input'] += 1
+        estimates = np.empty_like(arrays.estimates)
+        covariances = None if arrays.covariances is None else np.empty(arrays.covariances.shape)
+        for k, (x, interval) in enumerate(zip(arrays.estimates, intervals)):
+            covariance = None if covariances is None else arrays.covariances[k]
+            u = stack[pairing[k] + 1]
+            predicted = estimator.prediction(x, covariance, int(interval), u)
+            estimates[k] = predicted.estimate
+            if covariances is not None:
+                covariances[k] = predicted.covariance
+        return ReplayArrays(arrays.stamps_ns, estimates, arrays.innovations, covariances,
+                            arrays.innovation_covariances, arrays.nis)
 
     def _replay_in_arrival_order(self, input_stamps, inputs, stamps, outputs, input_arrivals,
-                                 arrivals) -> 'ReplayArrays':
+                                 arrivals) -> ReplayArrays:
         events = sorted(
             [(int(t), 0, k) for k, t in enumerate(np.asarray(input_arrivals).tolist())]
             + [(int(t), 1, k) for k, t in enumerate(np.asarray(arrivals).tolist())])
@@ -563,14 +706,9 @@ class StreamEstimator:
             add = self.add_input if kind == 0 else self.add_measurement
             values = inputs[index] if kind == 0 else outputs[index]
             stamp = int((input_stamps if kind == 0 else stamps)[index])
-            samples += [(sample.stamp_ns, sample.estimate, sample.innovation)
-                        for sample in add(stamp, values, arrival)]
-        samples += [(sample.stamp_ns, sample.estimate, sample.innovation)
-                    for sample in self.flush()]
-        n_states, n_outputs = self.estimator.n_states, self.estimator.n_outputs
-        return ReplayArrays(np.array([s[0] for s in samples], dtype=np.int64),
-                            np.array([s[1] for s in samples]).reshape(-1, n_states),
-                            np.array([s[2] for s in samples]).reshape(-1, n_outputs))
+            samples += add(stamp, values, arrival)
+        samples += self.flush()
+        return replay_arrays(samples, self.estimator.n_states, self.estimator.n_outputs)
 
     def _prune(self) -> None:
         previous = self.estimator.stamp_ns

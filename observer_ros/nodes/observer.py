@@ -29,9 +29,8 @@ from rclpy.clock import Clock, ClockType
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 
-from observer_ros.core.config import OBSERVER
+from observer_ros.config import OBSERVER
 from observer_ros.core.errors import ConfigError, ObserverRosError
-from observer_ros.core.estimators import step_design_for
 from observer_ros.core.placement import preload_methods
 from observer_ros.ros.diagnostics import DiagnosticsPublisher
 from observer_ros.ros.messages import MalformedMessage, VectorCodec
@@ -96,21 +95,19 @@ class ObserverNode(ConfiguredNode):
             return
         # Design the new observer now for the intervals in use, so that a change the
         # sampled design cannot take is refused here instead of failing on a sample.
-        design = step_design_for(system.observer, system.parameters['observer.method'])
-        for dt_ns in stream.estimator.recent_intervals():
-            try:
-                design.step(dt_ns)
-            except STEP_ERRORS as e:
-                raise ConfigError(_source(system), f'the observer cannot be sampled at the '
-                                  f'running interval of {dt_ns / 1e9:g} s: {e}') from e
+        intervals = stream.estimator.recent_intervals()
+        try:
+            system.make_estimator().try_intervals(intervals)
+        except STEP_ERRORS as e:
+            raise ConfigError(_source(system), f'the observer cannot be sampled at the '
+                              f'running intervals ({[dt / 1e9 for dt in intervals]} s): '
+                              f'{e}') from e
 
     def apply_system(self, previous, system) -> None:
         """Switch gains without touching the estimate (no jump in x_hat)."""
         estimator = self.stream.estimator
-        estimator.replace_design(step_design_for(system.observer,
-                                                 system.parameters['observer.method']))
+        estimator.adopt(system.make_estimator())
         estimator.initial_state = system.initial_estimate
-        estimator.interval_resolution_ns = system.interval_resolution_ns
         self.stream.clock_tolerance_ns = round(
             system.parameters['observer.clock_tolerance'] * NANOSECONDS)
 

@@ -48,7 +48,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.task import Future
 from rosgraph_msgs.msg import Clock as ClockMessage
 
-from observer_ros.core.config import PLANT
+from observer_ros.config import PLANT
 from observer_ros.core.simulation import PlantSimulator
 from observer_ros.core.streaming import within_limit
 from observer_ros.ros.diagnostics import DiagnosticsPublisher

@@ -35,7 +35,7 @@ import time
 
 from rclpy.clock import Clock, ClockType
 
-from observer_ros.core.config import FEEDBACK
+from observer_ros.config import FEEDBACK
 from observer_ros.core.control import StateFeedbackLaw
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.placement import preload_methods

@@ -36,7 +36,7 @@ from std_msgs.msg import Float64MultiArray
 
 from observer_ros.bags.cdr import (
     DecodeError, HEADER, MessageReader, MessageWriter)
-from observer_ros.core.config import System
+from observer_ros.config import System
 
 MESSAGE_CLASSES = {'joint_state': JointState, 'float64_multi_array': Float64MultiArray}
 

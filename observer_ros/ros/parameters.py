@@ -15,9 +15,9 @@
 """
 ROS parameters to and from the core's one schema.
 
-:class:`ConfiguredNode` declares the parameters of :data:`observer_ros.core.config.PARAMETERS`
+:class:`ConfiguredNode` declares the parameters of :data:`observer_ros.config.PARAMETERS`
 its node uses (structural ones read-only), validates them with
-:func:`observer_ros.core.config.validate_parameters` at start-up and vets every run-time
+:func:`observer_ros.config.validate_parameters` at start-up and vets every run-time
 change with the same function: a rejected change returns the reason and leaves everything
 as it was; an accepted one is applied after it is set.
 """
@@ -40,9 +40,10 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.subscription import Subscription
 from rclpy.utilities import remove_ros_args
 
-from observer_ros.core.config import (
-    BOOL, DOUBLE, DOUBLE_ARRAY, INTEGER, node_parameters, PARAMETER_SPECS, ParameterSpec,
-    STRING, STRING_ARRAY, System, validate_parameters)
+from observer_ros.config import (
+    node_parameters, PARAMETER_SPECS, ParameterSpec, System, validate_parameters)
+from observer_ros.core.arguments import (
+    BOOL, DOUBLE, DOUBLE_ARRAY, INTEGER, STRING, STRING_ARRAY)
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.ros.messages import LATEST_STAMP_NS, stamp_problem, stamp_to_ns
 from observer_ros.signals import StopSignals
@@ -149,13 +150,13 @@ class ConfiguredNode(Node):
     """
     A node configured from the shared schema.
 
-    Declares the parameters of its ``role`` (:func:`observer_ros.core.config.node_parameters`)
+    Declares the parameters of its ``role`` (:func:`observer_ros.config.node_parameters`)
     with their schema types, structural ones read-only. Subclasses read :attr:`system`
     after ``super().__init__`` and implement :meth:`apply_system` to switch to a new
     validated configuration at run time. A set-parameters request is vetted before anything
     changes: a parameter set to NOT_SET or to another type is refused with a reason naming
     it (integers are taken as doubles), and the merged values must pass
-    :func:`~observer_ros.core.config.validate_parameters` and :meth:`vet_system`.
+    :func:`~observer_ros.config.validate_parameters` and :meth:`vet_system`.
 
     Raises
     ------

@@ -21,7 +21,7 @@ import numpy as np
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
-from observer_ros.core.config import System
+from observer_ros.config import System
 from observer_ros.ros.messages import MalformedMessage, VectorCodec
 from observer_ros.ros.parameters import volatile_qos
 

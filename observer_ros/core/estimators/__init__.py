@@ -12,36 +12,56 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""Runtime estimators: one loop (:class:`Estimator`), one step design per observer type."""
+"""
+Runtime estimators: the protocol, the constant-``G`` loop and the time-varying Kalman filter.
 
-from observer_ros.core.design.chen import ChenDesign
+:class:`StateEstimator` is what the stream drives; :class:`Estimator` runs one matrix per
+sample interval from a step design (one per Luenberger type and the steady-state Kalman
+filter); :class:`TimeVaryingKalman` carries its covariance. The observer types
+(:mod:`observer_ros.core.observers`) say which one a design runs on.
+"""
+
 from observer_ros.core.design.common import ObserverDesign
-from observer_ros.core.design.kalman import KalmanDesign
-from observer_ros.core.design.reduced_order import ReducedOrderDesign
 from observer_ros.core.estimators.base import Estimator, StepDesign, StepMatrices
 from observer_ros.core.estimators.chen import ChenStep
 from observer_ros.core.estimators.full_order import FullOrderStep
 from observer_ros.core.estimators.kalman import KalmanStep
+from observer_ros.core.estimators.protocol import Prediction, StateEstimator
 from observer_ros.core.estimators.reduced_order import ReducedOrderStep
-
-
-def step_design_for(design: ObserverDesign, method: str = 'auto') -> StepDesign:
-    """Return the runtime step design matching an observer design of any type."""
-    if isinstance(design, KalmanDesign):
-        return KalmanStep(design)
-    if isinstance(design, ChenDesign):
-        return ChenStep(design)
-    if isinstance(design, ReducedOrderDesign):
-        return ReducedOrderStep(design, method)
-    return FullOrderStep(design, method)
+from observer_ros.core.estimators.time_varying_kalman import TimeVaryingKalman
 
 
 def make_estimator(design: ObserverDesign, initial_state=None, method: str = 'auto',
-                   interval_resolution_ns: int = 0) -> Estimator:
-    """Build the runtime :class:`Estimator` for an observer design."""
-    return Estimator(step_design_for(design, method), initial_state,
-                     interval_resolution_ns=interval_resolution_ns)
+                   interval_resolution_ns: int = 0, **options) -> StateEstimator:
+    """
+    Build the runtime estimator of an observer design, through its registered type.
+
+    Parameters
+    ----------
+    design : ObserverDesign
+        From any design function; its ``kind`` names the observer type.
+    initial_state : array_like, shape (n,), optional
+        Pins the first estimate (see :class:`Estimator`).
+    method : str
+        Placement method of the per-interval designs (pole-placed types).
+    interval_resolution_ns : int
+        Round intervals to multiples of this before designing them (0: exact).
+    **options
+        Further arguments of the type (``time_varying=True``, ``initial_covariance=...``
+        for ``kalman``).
+
+    Raises
+    ------
+    ConfigError
+        ``type``: the design's kind is no registered observer type; or a bad option.
+
+    """
+    from observer_ros.core.observers import observer_type  # the types import this module
+    kind = observer_type(design.kind)
+    values = kind.values({'method': method, **options})
+    return kind.estimator(design, values, initial_state, interval_resolution_ns)
 
 
-__all__ = ['ChenStep', 'Estimator', 'FullOrderStep', 'KalmanStep', 'ReducedOrderStep',
-           'StepDesign', 'StepMatrices', 'make_estimator', 'step_design_for']
+__all__ = ['ChenStep', 'Estimator', 'FullOrderStep', 'KalmanStep', 'Prediction',
+           'ReducedOrderStep', 'StateEstimator', 'StepDesign', 'StepMatrices',
+           'TimeVaryingKalman', 'make_estimator']

@@ -29,8 +29,9 @@ from typing import Optional
 
 import numpy as np
 
-from observer_ros.core.discretize import zero_order_hold
+from observer_ros.core.discretize import transition, zero_order_hold
 from observer_ros.core.errors import ConfigError, DesignError, StampError
+from observer_ros.core.estimators.protocol import Prediction, StateEstimator
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.placement import place_observer
 from observer_ros.core.poles import to_discrete
@@ -40,6 +41,9 @@ DEFAULT_CACHE_SIZE = 256
 
 #: Distinct recent intervals remembered for :meth:`Estimator.recent_intervals`.
 RECENT_INTERVALS = 4
+
+#: Prediction intervals whose transition matrices are kept (:meth:`Estimator.predict`).
+PREDICTION_CACHE = 64
 
 NANOSECONDS = 1_000_000_000
 
@@ -64,6 +68,10 @@ class StepMatrices:
         Designed discrete poles of the interval.
     covariance : numpy.ndarray or None, shape (n, n)
         Kalman only: covariance of ``x_hat`` after the update.
+    ad, bd : numpy.ndarray or None, shapes (n, n) and (n, m)
+        The sampled plant of the interval.
+    innovation_covariance : numpy.ndarray or None, shape (p, p)
+        Kalman only: ``S = C P_prior C^T + R``.
 
     """
 
@@ -71,6 +79,9 @@ class StepMatrices:
     error: np.ndarray
     poles: np.ndarray
     covariance: Optional[np.ndarray] = None
+    ad: Optional[np.ndarray] = None
+    bd: Optional[np.ndarray] = None
+    innovation_covariance: Optional[np.ndarray] = None
     g_known: np.ndarray = field(init=False, repr=False)
     g_y: np.ndarray = field(init=False, repr=False)
     g_y_column: Optional[np.ndarray] = field(init=False, repr=False)
@@ -99,13 +110,15 @@ def output_term(step: StepMatrices, y: np.ndarray) -> np.ndarray:
 
 def assemble_step(error: np.ndarray, input_gain: np.ndarray, output_gain: np.ndarray,
                   c: np.ndarray, ad: np.ndarray, bd: np.ndarray, poles: np.ndarray,
-                  covariance: Optional[np.ndarray] = None) -> StepMatrices:
+                  covariance: Optional[np.ndarray] = None,
+                  innovation_covariance: Optional[np.ndarray] = None) -> StepMatrices:
     """Stack ``x_hat_new = error x + input_gain u + output_gain y`` with the innovation rows."""
     n_outputs = c.shape[0]
     top = np.hstack([error, input_gain, output_gain])
     bottom = np.hstack([-c @ ad, -c @ bd, np.eye(n_outputs)])
     return StepMatrices(g=np.ascontiguousarray(np.vstack([top, bottom])), error=error,
-                        poles=poles, covariance=covariance)
+                        poles=poles, covariance=covariance, ad=ad, bd=bd,
+                        innovation_covariance=innovation_covariance)
 
 
 class StepDesign:
@@ -144,6 +157,13 @@ class StepDesign:
         """
         raise NotImplementedError
 
+    #: Process noise for predicting a covariance (Kalman designs set it).
+    process_noise: Optional[np.ndarray] = None
+
+    def transition(self, dt_ns: int) -> tuple:
+        """Return ``(Ad, Bd, Qd or None)`` over ``dt_ns`` (see :func:`~.discretize.transition`)."""
+        return transition(self.model, dt_ns / NANOSECONDS, self.process_noise)
+
     def discrete_poles(self, continuous_or_discrete: np.ndarray, dt: float) -> np.ndarray:
         """``exp(lambda dt)`` for a sampled continuous model, the poles as given otherwise."""
         if self.model.is_discrete:
@@ -178,9 +198,9 @@ def least_norm_consistent(c: np.ndarray, initial_state: np.ndarray, y: np.ndarra
     return initial_state + correction
 
 
-class Estimator:
+class Estimator(StateEstimator):
     """
-    Discrete-time state estimator driven by stamped samples.
+    The constant-``G`` estimator: one matrix per sample interval, cached by interval.
 
     Parameters
     ----------
@@ -218,6 +238,7 @@ class Estimator:
         self._pinned: Optional[np.ndarray] = None
         self.initial_state = initial_state
         self._cache: OrderedDict = OrderedDict()
+        self._transitions: OrderedDict = OrderedDict()
         self._recent: OrderedDict = OrderedDict()
         self._cache_size = cache_size
         self._last_dt_ns: Optional[int] = None
@@ -324,10 +345,57 @@ class Estimator:
         """Stamp of the last accepted sample, None before the first one."""
         return self._stamp
 
+    supports_batch = True
+
     @property
     def covariance(self) -> Optional[np.ndarray]:
         """Kalman filters: covariance of the estimate after the last update."""
         return None if self._step is None else self._step.covariance
+
+    @property
+    def innovation_covariance(self) -> Optional[np.ndarray]:
+        """Kalman filters: covariance ``S`` of the last innovation (None before a step)."""
+        return None if self._step is None else self._step.innovation_covariance
+
+    def prediction(self, estimate: np.ndarray, covariance: Optional[np.ndarray],
+                   interval_ns: int, u: np.ndarray) -> Prediction:
+        """
+        Return ``estimate`` (and ``covariance``) carried over ``interval_ns`` with ``u``.
+
+        ``x = Ad x + Bd u`` (and, for a Kalman filter, ``P = Ad P Ad^T + Qd``), with the
+        sampled model of that interval (cached); an interval of 0 changes nothing.
+        """
+        if interval_ns <= 0:
+            return Prediction(0, np.array(estimate, dtype=float), covariance)
+        cached = self._transitions.get(interval_ns)
+        if cached is None:
+            cached = self.design.transition(interval_ns)
+            self._transitions[interval_ns] = cached
+            if len(self._transitions) > PREDICTION_CACHE:
+                self._transitions.popitem(last=False)
+        ad, bd, qd = cached
+        predicted = ad @ estimate + bd @ np.asarray(u, dtype=float)
+        if covariance is not None and qd is not None:
+            covariance = ad @ covariance @ ad.T + qd
+            covariance = 0.5 * (covariance + covariance.T)
+        return Prediction(0, predicted, covariance)
+
+    @property
+    def last_interval_ns(self) -> int:
+        """The interval of the last step in nanoseconds (0 at a first sample)."""
+        return 0 if self._step is None or self._last_dt_ns is None else self._last_dt_ns
+
+    def try_intervals(self, intervals_ns) -> None:
+        """Make the step of each interval (ns) now; raise what a sample would raise."""
+        for dt_ns in intervals_ns:
+            self.step_matrices(int(dt_ns))
+
+    def adopt(self, other: StateEstimator) -> None:
+        """Take the step design of ``other`` (an :class:`Estimator`); keep the state."""
+        if not isinstance(other, Estimator):
+            raise ValueError(f'adopt: expected an Estimator, got {type(other).__name__}')
+        self.replace_design(other.design)
+        self.interval_resolution_ns = other.interval_resolution_ns
 
     @property
     def last_step(self) -> Optional[StepMatrices]:
@@ -594,6 +662,7 @@ class Estimator:
             raise ValueError('replace_design: the new design has other dimensions')
         self.design = design
         self._cache.clear()
+        self._transitions.clear()
         self._last_dt_ns = self._last_step_matrices = self._prepared = None
 
     def run(self, stamps_ns, outputs, inputs) -> np.ndarray:

@@ -29,11 +29,11 @@ from observer_ros.core.estimators.base import (
 
 
 def current_form(ad: np.ndarray, bd: np.ndarray, c: np.ndarray, filter_gain: np.ndarray,
-                 poles: np.ndarray, covariance=None) -> StepMatrices:
+                 poles: np.ndarray, covariance=None, innovation_covariance=None) -> StepMatrices:
     """Step matrices of ``x_hat = (I - M C)(Ad x_hat + Bd u) + M y``."""
     correction = np.eye(ad.shape[0]) - filter_gain @ c
     return assemble_step(correction @ ad, correction @ bd, filter_gain, c, ad, bd, poles,
-                         covariance)
+                         covariance, innovation_covariance)
 
 
 class FullOrderStep(StepDesign):

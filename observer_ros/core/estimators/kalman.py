@@ -42,5 +42,6 @@ class KalmanStep(StepDesign):
         q = self.process_noise if model.is_discrete else van_loan(model.a, self.process_noise,
                                                                   dt)
         sampled = discrete_kalman(model, q, self.measurement_noise, a=ad)
+        innovation = model.c @ sampled.covariance @ model.c.T + self.measurement_noise
         return current_form(ad, bd, model.c, sampled.filter_gain, sampled.achieved_poles,
-                            sampled.filtered_covariance)
+                            sampled.filtered_covariance, 0.5 * (innovation + innovation.T))

@@ -16,14 +16,10 @@
 
 import numpy as np
 
+from observer_ros.config.system import System
 from observer_ros.core.analysis import controllability, observability
-from observer_ros.core.config import System
-from observer_ros.core.design.chen import ChenDesign
 from observer_ros.core.design.controller import diophantine_controller, polynomial_text
-from observer_ros.core.design.kalman import KalmanDesign
-from observer_ros.core.design.reduced_order import ReducedOrderDesign
 from observer_ros.core.errors import DesignError
-from observer_ros.core.estimators import step_design_for
 from observer_ros.core.poles import pole_pairs
 
 
@@ -43,11 +39,17 @@ def _diophantine(system: System):
 
 
 def _sampled_step(system: System):
-    """Runtime step matrices at the plant rate (continuous models only)."""
+    """Runtime step matrices at the plant rate (constant-G estimators of continuous models)."""
     if system.observer is None:
         return None
-    step_design = step_design_for(system.observer, system.parameters['observer.method'])
-    return step_design.step(system.plant.period_ns)
+    estimator = system.make_estimator()
+    design = getattr(estimator, 'design', None)
+    return None if design is None else design.step(system.plant.period_ns)
+
+
+def _type_items(system: System) -> tuple:
+    """Return the observer type's own report fields (``ReportItem`` of each)."""
+    return tuple(system.kind.report(system.observer))
 
 
 def design_summary(system: System) -> dict:
@@ -86,18 +88,9 @@ def design_summary(system: System) -> dict:
         summary['observer.method'] = observer.method
         summary['observer.residual'] = observer.residual
         summary['observer.order'] = observer.order
-        if isinstance(observer, ReducedOrderDesign):
-            summary['observer.transform'] = _rows(observer.transform)
-            for name in ('a_hat', 'b_hat', 'f_hat', 'c_hat', 'd_hat'):
-                summary[f'observer.{name}'] = _rows(getattr(observer, name))
-        if isinstance(observer, ChenDesign):
-            summary['observer.f'] = _rows(observer.f)
-            summary['observer.t'] = _rows(observer.t)
-            summary['observer.condition'] = observer.condition
-        if isinstance(observer, KalmanDesign):
-            summary['observer.covariance'] = _rows(observer.covariance)
-            if observer.filter_gain is not None:
-                summary['observer.filter_gain'] = _rows(observer.filter_gain)
+        for item in _type_items(system):
+            summary[f'observer.{item.key}'] = (item.value if np.ndim(item.value) == 0
+                                               else _rows(item.value))
         step = _sampled_step(system)
         if step is not None and not model.is_discrete:
             summary['sampled'] = {
@@ -160,21 +153,11 @@ def format_report(system: System) -> str:
         out.append(f'requested poles = {_poles_text(observer.requested_poles)}\n')
         out.append(f'achieved poles  = {_poles_text(observer.achieved_poles)}\n')
         out.append(f'residual = {observer.residual:.3g}\n')
-        if isinstance(observer, ReducedOrderDesign):
-            out.append(_matrix_text('Q (w = Q x)', observer.transform))
-            out.append(_matrix_text('Ahat = Abb - L Aab', observer.a_hat))
-            out.append(_matrix_text('Bhat = Ahat L + Aba - L Aaa', observer.b_hat))
-            out.append(_matrix_text('Fhat = Bb - L Ba', observer.f_hat))
-            out.append(_matrix_text('Chat', observer.c_hat))
-            out.append(_matrix_text('Dhat', observer.d_hat))
-        if isinstance(observer, ChenDesign):
-            out.append(_matrix_text('F', observer.f))
-            out.append(_matrix_text('T (T A - F T = L C)', observer.t))
-            out.append(f'cond([C; T]) = {observer.condition:.4g}\n')
-        if isinstance(observer, KalmanDesign):
-            out.append(_matrix_text('P', observer.covariance))
-            if observer.filter_gain is not None:
-                out.append(_matrix_text('M (filter gain; L = A M)', observer.filter_gain))
+        for item in _type_items(system):
+            if np.ndim(item.value) == 0:
+                out.append(f'{item.label} = {item.value:.4g}\n')
+            else:
+                out.append(_matrix_text(item.label, item.value))
         step = _sampled_step(system)
         if step is not None and not model.is_discrete:
             out.append(f'sampled at {system.plant.rate_hz:g} Hz: discrete poles '

@@ -1,0 +1,244 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The one parameter schema of observer_ros.
+
+Every parameter the nodes declare, the design CLI and the bag tools read is a
+:class:`~observer_ros.core.arguments.Argument` here, under its parameter name: the model,
+the observer (``observer.type``, the stream's own settings and the arguments of every
+registered observer type, :mod:`observer_ros.core.observers`), the state feedback, the
+plant simulator and the message settings of each topic (``topics.<topic>.*``).
+"""
+
+import json
+
+from observer_ros.core.arguments import (
+    Argument, array as _array, BOOL, DOUBLE, ENTRY_LIMIT, INTEGER, matrix_text as _matrix,
+    STRING, STRING_ARRAY)
+from observer_ros.core.arguments import seconds as _core_seconds
+from observer_ros.core.observers import observer_arguments, observer_types
+from observer_ros.core.observers.chen import SEED_MAX
+from observer_ros.core.placement import METHODS
+
+#: A parameter of the schema (the same class as a type's argument, under its full name).
+ParameterSpec = Argument
+
+#: The nodes of the package, by the name each declares its parameters under.
+PLANT, OBSERVER, FEEDBACK = 'plant_simulator', 'observer', 'state_feedback'
+ALL_NODES = (PLANT, OBSERVER, FEEDBACK)
+
+#: Default of ``topics.<topic>.limit``: the largest magnitude a vector value may have.
+VALUE_LIMIT = 1e9
+
+#: Default limit of the covariance topics (their entries are squares of the states').
+COVARIANCE_LIMIT = 1e18
+
+MESSAGE_TYPES = ('joint_state', 'float64_multi_array')
+JOINT_STATE_FIELDS = ('position', 'velocity', 'effort')
+
+#: Vector topics: name, what the entries are named after, and the nodes that use it.
+TOPIC_ROLES = (
+    ('y', 'output', (PLANT, OBSERVER)), ('u', 'input', (PLANT, OBSERVER)),
+    ('u_cmd', 'input', (PLANT, FEEDBACK)), ('x_hat', 'state', (OBSERVER, FEEDBACK)),
+    ('x_true', 'state', (PLANT,)), ('reference', 'output', (FEEDBACK,)),
+    ('innovation', 'output', (OBSERVER,)),
+    ('x_hat_covariance', 'state pair', (OBSERVER,)),
+    ('innovation_covariance', 'output pair', (OBSERVER,)),
+    ('nis', 'nis', (OBSERVER,)))
+TOPICS = tuple(topic for topic, _, _ in TOPIC_ROLES)
+
+_OBS, _FB, _PL = (OBSERVER,), (FEEDBACK,), (PLANT,)
+
+
+def _on(nodes: tuple, argument: Argument, prefix: str = '') -> Argument:
+    """Return ``argument`` as the parameter ``prefix + name`` declared by ``nodes``."""
+    return Argument(prefix + argument.name, argument.kind, argument.default,
+                    argument.description, argument.dynamic, nodes, argument.low,
+                    argument.high, argument.low_open, argument.unit, argument.entry_limit,
+                    argument.choices)
+
+
+def _seconds(name, default, description, low, high, nodes, dynamic=False):
+    return _on(nodes, _core_seconds(name, default, description, low, high, dynamic))
+
+
+def _values(name, description, nodes, dynamic=False, limit=ENTRY_LIMIT):
+    return _on(nodes, _array(name, description, dynamic, limit))
+
+
+def _spec(name, kind, default, description, nodes=ALL_NODES, **options):
+    return Argument(name, kind, default, description, nodes=nodes, **options)
+
+
+MODEL = (
+    _values('model.A', _matrix('State matrix A, n x n (n*n values)'), ALL_NODES),
+    _values('model.B', _matrix('Input matrix B, n x m'), ALL_NODES),
+    _values('model.C', _matrix('Output matrix C, p x n'), ALL_NODES),
+    _values('model.D', _matrix('Feedthrough D, p x m; empty means zero'), ALL_NODES),
+    _seconds('model.dt', 0.0, 'Model period in seconds: 0 for continuous time, > 0 for '
+             'discrete time.', 0.0, 3600.0, ALL_NODES),
+    _spec('model.state_names', STRING_ARRAY, [], 'n state names (default x1..xn).'),
+    _spec('model.input_names', STRING_ARRAY, [], 'm input names (default u1..um).'),
+    _spec('model.output_names', STRING_ARRAY, [], 'p output names (default y1..yp).'),
+)
+
+OBSERVER_STREAM = (
+    _spec('observer.type', STRING, 'full_order',
+          ' | '.join(kind.name for kind in observer_types()) + ' (the registered observer '
+          'types).', _OBS, choices=tuple(kind.name for kind in observer_types())),
+    _values('observer.initial_state', 'Initial estimate, n values. Empty (the default): the '
+            'first measurement initialises the estimate (least-norm x with C x = y; a '
+            'time-varying Kalman filter updates the prior 0 with P0).', _OBS, dynamic=True,
+            limit=VALUE_LIMIT),
+    _seconds('observer.input_wait', 0.05, 'Wall-clock seconds a measurement may wait for the '
+             'stamped input of its interval before the latest earlier input is used '
+             '(0 ... 10).', 0.0, 10.0, _OBS),
+    _seconds('observer.interval_resolution', 0.0,
+             'Seconds: sample intervals are rounded to a multiple of this before the '
+             'observer is discretized and designed for them (0: every interval exact). '
+             'With jittered stamps and a continuous model, e.g. 1e-5 bounds the designs '
+             'to one per 10 us of interval instead of one per new interval.', 0.0, 1e6,
+             _OBS, dynamic=True),
+    _seconds('observer.max_gap', 1.0, 'Seconds between measurements beyond which (or a '
+             'backward jump beyond which) the estimator restarts from the new sample '
+             '(0.001 ... 1e6).', 0.001, 1e6, _OBS),
+    _seconds('observer.clock_tolerance', 0.5, 'Seconds a measurement or input may be stamped '
+             'ahead of the node clock; a later stamp is dropped and counted (future_stamp), '
+             'so it cannot capture the timeline. 0 turns the check off (0 ... 1e6).', 0.0,
+             1e6, _OBS, dynamic=True),
+    _spec('observer.publish_rate', DOUBLE, 0.0, 'Hz: above 0 the observer also publishes, '
+          'at this rate on its clock, the estimate predicted to that time with the latest '
+          'input (and its covariance), stamped with that time; 0 publishes once per '
+          'measurement (0 ... 1000).', _OBS, low=0.0, high=1000.0, unit='a rate in Hz'),
+)
+
+FEEDBACK_PARAMETERS = (
+    _values('feedback.gain', _matrix('Given state-feedback gain K, m x n (u = -K x_hat + N r)'),
+            _FB, dynamic=True),
+    _spec('feedback.poles', STRING_ARRAY, [], 'Poles of A - B K as strings, n of them.', _FB,
+          dynamic=True),
+    _spec('feedback.method', STRING, 'auto', 'Pole placement method for K: '
+          + ' | '.join(METHODS) + '.', _FB, dynamic=True, choices=METHODS),
+    _values('feedback.reference_gain', _matrix('Reference gain N, m x p; empty: unit DC gain '
+                                               'when the plant is square'), _FB, dynamic=True),
+    _values('feedback.input_limits', 'Command saturation: [min, max] or [min_1, max_1, ..., '
+            'min_m, max_m].', _FB, dynamic=True, limit=VALUE_LIMIT),
+    _seconds('feedback.timeout', 0.5, 'Steady-clock seconds without an accepted x_hat after '
+             'which the safe command is published, with use_sim_time too (0.001 ... 3600).',
+             0.001, 3600.0, _FB, dynamic=True),
+    _values('feedback.safe_command', 'Command published when x_hat is stale or a command is '
+            'beyond topics.u_cmd.limit, m values (default zeros; inside '
+            'feedback.input_limits).', _FB, dynamic=True, limit=VALUE_LIMIT),
+    _seconds('feedback.safe_command_period', 0.1, 'Steady-clock seconds between repetitions '
+             'of the safe command while x_hat is stale (0.001 ... 3600).', 0.001, 3600.0, _FB,
+             dynamic=True),
+)
+
+PLANT_PARAMETERS = (
+    _spec('plant.rate_hz', DOUBLE, 0.0,
+          'Plant sample rate in Hz: 0 (the default) follows the model (1 / model.dt for a '
+          'discrete one, 100 Hz for a continuous one); else 0.01 ... 10000.', _PL, low=0.0,
+          high=10000.0, unit='a rate in Hz'),
+    _values('plant.initial_state', 'True initial state, n values.', _PL, limit=VALUE_LIMIT),
+    _values('plant.process_noise', 'Plant process noise: intensity (continuous) or covariance '
+            '(discrete), n or n*n values; empty for none.', _PL),
+    _values('plant.measurement_noise', 'Measurement noise covariance, p or p*p values; empty '
+            'for none.', _PL),
+    _spec('plant.seed', INTEGER, 0, 'Seed of the plant noise (0 ... 2^63 - 1).', _PL, low=0,
+          high=SEED_MAX, unit='a seed'),
+    _values('plant.input_limits', 'Input saturation: [min, max] or [min_1, max_1, ..., min_m, '
+            'max_m].', _PL, limit=VALUE_LIMIT),
+    _spec('plant.lockstep', BOOL, False,
+          'Lockstep: publish /clock and advance only when the command computed from the '
+          'current sample has arrived (deterministic, faster than real time).', _PL),
+    _seconds('plant.lockstep_timeout', 1.0, 'Lockstep: wall-clock seconds to wait for the '
+             'command before advancing with the last one (with a warning).', 0.001, 3600.0,
+             _PL),
+    _spec('plant.lockstep_subscribers', INTEGER, 1,
+          'Subscribers on y (the observer plus any recorder) the plant waits for before its '
+          'first sample, in lockstep and real time (1 ... 100).', _PL, low=1, high=100,
+          unit='a count'),
+    _spec('plant.wait_for_command', BOOL, True,
+          'Also wait for a publisher on u_cmd before the first sample (false for an open-loop '
+          'run without state_feedback).', _PL),
+    _seconds('plant.start_timeout', 10.0, 'Wall-clock seconds to wait for those peers; then '
+             'the plant starts anyway with a warning naming what is missing. 0 waits without '
+             'limit (0 ... 3600).', 0.0, 3600.0, _PL),
+    _seconds('plant.command_timeout', 0.5, 'Seconds without a new u_cmd after which the plant '
+             'applies plant.safe_input until the next command (counted, warned once per '
+             'outage); steady clock in real time, simulated time in lockstep. More than one '
+             'sample period (0.001 ... 3600).', 0.001, 3600.0, _PL),
+    _values('plant.safe_input', 'Input applied before the first command and after '
+            'plant.command_timeout, m values (default zeros; inside plant.input_limits).', _PL,
+            limit=VALUE_LIMIT),
+    _spec('plant.samples', INTEGER, 0,
+          'Number of samples to simulate, then stop; 0 runs until shut down.', _PL, low=0,
+          high=10 ** 12, unit='a count'),
+)
+
+
+def _topic_parameters(topic: str, names: str, nodes: tuple) -> tuple:
+    limit = COVARIANCE_LIMIT if names.endswith('pair') else VALUE_LIMIT
+    entries = {'state pair': 'entries named "<state>,<state>" (row-major)',
+               'output pair': 'entries named "<output>,<output>" (row-major)',
+               'nis': 'one entry named "nis"'}.get(names, f'the model {names} names as joint '
+                                                          f'names')
+    return (
+        _spec(f'topics.{topic}.type', STRING, 'joint_state',
+              f'Message type of {topic}: joint_state (sensor_msgs/JointState, {entries}) | '
+              f'float64_multi_array (std_msgs/Float64MultiArray, unstamped'
+              + (', layout n x n' if names.endswith('pair') else '') + ').', nodes,
+              choices=MESSAGE_TYPES),
+        _spec(f'topics.{topic}.field', STRING, 'position',
+              f'JointState field holding {topic}: position | velocity | effort.', nodes,
+              choices=JOINT_STATE_FIELDS),
+        _spec(f'topics.{topic}.limit', DOUBLE, limit,
+              f'Largest magnitude of a value on {topic}: a received message with a larger '
+              f'value is dropped and counted (out_of_range), and no larger value is published '
+              f'(1e-300 ... 1e300).', nodes, low=1e-300, high=1e300),
+    )
+
+
+PARAMETERS = (MODEL + OBSERVER_STREAM
+              + tuple(_on(_OBS, argument, 'observer.') for argument in observer_arguments())
+              + FEEDBACK_PARAMETERS + PLANT_PARAMETERS
+              + tuple(spec for role in TOPIC_ROLES for spec in _topic_parameters(*role)))
+
+PARAMETER_SPECS = {spec.name: spec for spec in PARAMETERS}
+
+#: Parameters every ROS node has, allowed in shared parameter files.
+ROS_PARAMETERS = ('use_sim_time', 'start_type_description_service')
+
+
+def parameter_table() -> str:
+    """Return the parameter schema as the Markdown table README shows."""
+    rows = ['| parameter | type | default | range | run-time | nodes | meaning |',
+            '|---|---|---|---|---|---|---|']
+    short = {PLANT: 'plant', OBSERVER: 'observer', FEEDBACK: 'feedback'}
+    for spec in PARAMETERS:
+        default = json.dumps(spec.default) if not isinstance(spec.default, str) else spec.default
+        limits = spec.range_text() or (f'abs <= {spec.entry_limit:g}' if spec.entry_limit
+                                       else '')
+        nodes = 'all' if spec.nodes == ALL_NODES else ', '.join(short[n] for n in spec.nodes)
+        rows.append(f'| `{spec.name}` | {spec.kind} | `{default}` | {limits} | '
+                    f'{"yes" if spec.dynamic else "no"} | {nodes} | {spec.description} |')
+    return '\n'.join(rows) + '\n'
+
+
+def node_parameters(node: str) -> tuple:
+    """Return the specs a node declares (``node``: :data:`PLANT`, :data:`OBSERVER` ...)."""
+    if node not in ALL_NODES:
+        raise ValueError(f'node: expected one of {", ".join(ALL_NODES)}, got {node!r}')
+    return tuple(spec for spec in PARAMETERS if node in spec.nodes)

@@ -1,0 +1,392 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The one function that validates a parameter set, and the :class:`System` it defines.
+
+:func:`validate_parameters` turns a flat ``{'model.A': [...], ...}`` mapping into a checked
+:class:`System` holding the model and every design, or raises ConfigError naming the
+parameter. It has no side effects, so the nodes vet run-time changes with it before they
+apply them, and the design CLI and the bag tools read files with it.
+"""
+
+from dataclasses import dataclass, field
+from typing import Any, Mapping, Optional
+import warnings
+
+import numpy as np
+
+from observer_ros.config.names import named
+from observer_ros.config.schema import PARAMETER_SPECS, PARAMETERS, ROS_PARAMETERS
+from observer_ros.core.design.common import ObserverDesign
+from observer_ros.core.design.controller import (
+    closed_loop_poles, controller_transfer_function, ControllerTransferFunction)
+from observer_ros.core.design.feedback import design_feedback, FeedbackDesign
+from observer_ros.core.errors import ConfigError, DesignError
+from observer_ros.core.estimators import StateEstimator
+from observer_ros.core.model import (
+    covariance_from_flat, matrix_from_flat, StateSpaceModel, vector_from_flat)
+from observer_ros.core.observers import observer_type, ObserverType
+from observer_ros.core.observers.common import parsed_poles
+from observer_ros.core.simulation import input_limits_from_flat
+from observer_ros.core.streaming import StreamEstimator, ValueLimits
+
+NANOSECONDS = 1_000_000_000
+
+#: The plant rate of a continuous model when ``plant.rate_hz`` is 0 (follow the model).
+DEFAULT_RATE_HZ = 100.0
+
+#: What numpy and scipy raise when a design's arithmetic breaks down (overflow, no
+#: convergence); a design that raises one is refused like any other failed design.
+NUMERIC_FAILURES = (np.linalg.LinAlgError, ValueError, ArithmeticError)
+
+
+@dataclass(frozen=True)
+class PlantSettings:
+    """Validated ``plant.*`` parameters (``rate_hz`` resolved from the model when 0)."""
+
+    rate_hz: float
+    initial_state: np.ndarray
+    process_noise: list
+    measurement_noise: list
+    seed: int
+    input_limits: Optional[np.ndarray]
+    command_timeout: float
+    safe_input: np.ndarray
+
+    @property
+    def period_ns(self) -> int:
+        """Sample period in integer nanoseconds."""
+        return int(round(1e9 / self.rate_hz))
+
+
+@dataclass(frozen=True)
+class FeedbackSettings:
+    """Validated ``feedback.*`` parameters and the feedback design."""
+
+    design: FeedbackDesign
+    reference_gain: Optional[np.ndarray]
+    input_limits: Optional[np.ndarray]
+    timeout: float
+    safe_command: np.ndarray
+    safe_command_period: float
+
+
+@dataclass(frozen=True)
+class System:
+    """
+    Everything a validated parameter set defines.
+
+    Attributes
+    ----------
+    parameters : dict
+        The complete flat parameter mapping (defaults filled in).
+    model : StateSpaceModel
+    observer : ObserverDesign or None
+        None when the parameters define no observer (no poles, gain or noise).
+    observer_type : str
+    initial_estimate : numpy.ndarray or None
+        ``observer.initial_state`` when given (it pins the first estimate); None when the
+        first measurement initialises the estimate.
+    feedback : FeedbackSettings or None
+    plant : PlantSettings
+    controller_tf : ControllerTransferFunction or None
+        SISO plants with both an observer and a feedback gain.
+    closed_loop_poles : numpy.ndarray or None
+    notes : tuple of str
+        Warnings worth showing (an unstable controller, for instance).
+
+    """
+
+    parameters: dict
+    model: StateSpaceModel
+    observer: Optional[ObserverDesign]
+    observer_type: str
+    initial_estimate: Optional[np.ndarray]
+    feedback: Optional[FeedbackSettings]
+    plant: PlantSettings
+    controller_tf: Optional[ControllerTransferFunction] = None
+    closed_loop_poles: Optional[np.ndarray] = None
+    notes: tuple = field(default_factory=tuple)
+
+    @property
+    def kind(self) -> ObserverType:
+        """The registered type of ``observer.type``."""
+        return observer_type(self.observer_type)
+
+    def observer_values(self) -> dict:
+        """Return the arguments of the observer type, by their own names."""
+        params = self.parameters
+        return {name: params[f'observer.{name}'] for name in self.kind.argument_names()}
+
+    def make_estimator(self) -> StateEstimator:
+        """Build the runtime estimator of the observer design (through its type)."""
+        if self.observer is None:
+            raise ConfigError('observer.poles', 'no observer is configured: give '
+                              'observer.poles, observer.gain or the Kalman noises')
+        return self.kind.estimator(self.observer, self.observer_values(),
+                                   self.initial_estimate, self.interval_resolution_ns)
+
+    @property
+    def form(self) -> str:
+        """``observer.form``: ``current``, or ``delayed`` (types that have the argument)."""
+        return self.observer_values().get('form', 'current')
+
+    def make_stream(self) -> StreamEstimator:
+        """
+        Build the :class:`StreamEstimator` the observer node and the bag replay both run.
+
+        Its gap, clock tolerance, value limits and form come from ``observer.max_gap``,
+        ``observer.clock_tolerance``, ``topics.<topic>.limit`` and ``observer.form``; inputs
+        count as stamped when ``topics.u.type`` carries a header.
+        """
+        params = self.parameters
+        limits = ValueLimits(measurement=params['topics.y.limit'],
+                             input=params['topics.u.limit'],
+                             estimate=params['topics.x_hat.limit'],
+                             innovation=params['topics.innovation.limit'])
+        return StreamEstimator(
+            self.make_estimator(), round(params['observer.max_gap'] * NANOSECONDS),
+            input_stamped=params['topics.u.type'] == 'joint_state',
+            clock_tolerance_ns=round(params['observer.clock_tolerance'] * NANOSECONDS),
+            limits=limits, form=self.form)
+
+    @property
+    def interval_resolution_ns(self) -> int:
+        """``observer.interval_resolution`` in integer nanoseconds."""
+        return round(self.parameters['observer.interval_resolution'] * NANOSECONDS)
+
+
+def complete_parameters(params: Mapping[str, Any], strict: bool = False) -> dict:
+    """
+    Fill defaults and coerce every known parameter to its type and range.
+
+    Unknown names are kept untouched unless ``strict`` is set, in which case any name
+    outside the schema (other than ROS's own ``use_sim_time`` and ``qos_overrides.*``) is
+    an error, so that a typo is not silently ignored.
+    """
+    complete = {}
+    for spec in PARAMETERS:
+        complete[spec.name] = spec.coerce(params.get(spec.name, spec.default))
+    for name, value in params.items():
+        if name in PARAMETER_SPECS:
+            continue
+        if strict and not (name in ROS_PARAMETERS or name.startswith('qos_overrides.')):
+            raise ConfigError(name, 'unknown parameter; see the parameter schema in README')
+        complete[name] = value
+    return complete
+
+
+def _observer_fallback(params: dict) -> str:
+    """Return the parameter a failed observer design is charged to when it names none."""
+    if params['observer.type'] == 'kalman':
+        return 'observer.process_noise'
+    return 'observer.gain' if params['observer.gain'] else 'observer.poles'
+
+
+def _design_observer(params: dict, model: StateSpaceModel) -> Optional[ObserverDesign]:
+    kind = observer_type(params['observer.type'])
+    given = {name[len('observer.'):]: value for name, value in params.items()
+             if name.startswith('observer.')}
+    if kind.vet is not None:
+        kind.vet(model, given)
+    return kind.design(model, kind.values(given))
+
+
+def _check_inside(parameter: str, vector: np.ndarray, limits, source: str) -> None:
+    """Refuse a vector outside ``limits`` (an ``(m, 2)`` array, or a magnitude bound)."""
+    if limits is None:
+        return
+    if np.ndim(limits) == 0:
+        outside = np.abs(vector) > limits
+    else:
+        outside = (vector < limits[:, 0]) | (vector > limits[:, 1])
+    if outside.any():
+        raise ConfigError(parameter, f'{vector.tolist()} lies outside {source} '
+                          f'({np.asarray(limits).tolist()})')
+
+
+def _limits(parameter: str, values, n_inputs: int):
+    try:
+        return input_limits_from_flat(values, n_inputs)
+    except ConfigError as e:
+        raise ConfigError(parameter, e.reason) from e
+
+
+def _feedback(params: dict, model: StateSpaceModel) -> Optional[FeedbackSettings]:
+    gain, pole_text = params['feedback.gain'] or None, params['feedback.poles']
+    if gain is None and not pole_text:
+        return None
+    if gain is not None and pole_text:
+        raise ConfigError('feedback.gain', 'give either feedback.gain or feedback.poles, '
+                          'not both')
+    try:
+        poles = parsed_poles({'poles': pole_text})
+    except ConfigError as e:
+        raise named(e, 'feedback', 'feedback.poles') from e
+    if poles is not None and poles.size != model.n_states:
+        raise ConfigError('feedback.poles',
+                          f'expected {model.n_states} poles, got {poles.size}')
+    source = 'feedback.gain' if gain is not None else 'feedback.poles'
+    try:
+        design = design_feedback(model, poles, gain, params['feedback.method'])
+    except (ConfigError, DesignError) as e:
+        raise named(e, 'feedback', source) from e
+    except NUMERIC_FAILURES as e:
+        raise ConfigError(source, f'the design failed numerically ({e})') from e
+    reference = params['feedback.reference_gain']
+    if reference:
+        reference_gain = matrix_from_flat('feedback.reference_gain', reference,
+                                          model.n_inputs, model.n_outputs)
+    else:
+        reference_gain = design.reference_gain
+    limits = _limits('feedback.input_limits', params['feedback.input_limits'], model.n_inputs)
+    safe = params['feedback.safe_command']
+    safe_command = (vector_from_flat('feedback.safe_command', safe, model.n_inputs) if safe
+                    else np.zeros(model.n_inputs))
+    _check_inside('feedback.safe_command', safe_command, limits, 'feedback.input_limits')
+    _check_inside('feedback.safe_command', safe_command,
+                  params['topics.u_cmd.limit'], 'topics.u_cmd.limit')
+    return FeedbackSettings(design=design, reference_gain=reference_gain, input_limits=limits,
+                            timeout=params['feedback.timeout'], safe_command=safe_command,
+                            safe_command_period=params['feedback.safe_command_period'])
+
+
+def plant_rate(params: Mapping, model: StateSpaceModel) -> float:
+    """
+    Return the plant rate: ``plant.rate_hz``, or with 0 the model's own.
+
+    Raises
+    ------
+    ConfigError
+        ``plant.rate_hz`` between 0 and 0.01 Hz, or not ``1 / model.dt`` for a discrete
+        model.
+
+    """
+    rate = params['plant.rate_hz']
+    if rate == 0.0:
+        return 1.0 / model.dt if model.is_discrete else DEFAULT_RATE_HZ
+    if rate < 0.01:
+        raise ConfigError('plant.rate_hz', f'expected 0 (the model rate) or a rate in '
+                          f'[0.01, 10000] Hz, got {rate:g}')
+    if model.is_discrete and abs(rate * model.dt - 1.0) > 1e-9:
+        raise ConfigError('plant.rate_hz', f'a discrete model with model.dt = {model.dt} s '
+                          f'runs at {1.0 / model.dt:g} Hz, got {rate}')
+    return rate
+
+
+def _plant(params: dict, model: StateSpaceModel) -> PlantSettings:
+    rate = plant_rate(params, model)
+    initial = params['plant.initial_state']
+    initial_state = (vector_from_flat('plant.initial_state', initial, model.n_states)
+                     if initial else np.zeros(model.n_states))
+    _check_inside('plant.initial_state', initial_state, params['topics.x_true.limit'],
+                  'topics.x_true.limit')
+    if params['plant.process_noise']:
+        covariance_from_flat('plant.process_noise', params['plant.process_noise'],
+                             model.n_states)
+    if params['plant.measurement_noise']:
+        covariance_from_flat('plant.measurement_noise', params['plant.measurement_noise'],
+                             model.n_outputs)
+    limits = _limits('plant.input_limits', params['plant.input_limits'], model.n_inputs)
+    safe = params['plant.safe_input']
+    safe_input = (vector_from_flat('plant.safe_input', safe, model.n_inputs) if safe
+                  else np.zeros(model.n_inputs))
+    _check_inside('plant.safe_input', safe_input, limits, 'plant.input_limits')
+    _check_inside('plant.safe_input', safe_input, params['topics.u.limit'], 'topics.u.limit')
+    command_timeout = params['plant.command_timeout']
+    if command_timeout * rate <= 1.0:
+        raise ConfigError('plant.command_timeout', f'expected more than one sample period '
+                          f'(1 / plant.rate_hz = {1.0 / rate:g} s), got {command_timeout:g}: '
+                          f'every sample would find the command stale')
+    return PlantSettings(rate_hz=rate, initial_state=initial_state,
+                         process_noise=params['plant.process_noise'],
+                         measurement_noise=params['plant.measurement_noise'],
+                         seed=params['plant.seed'], input_limits=limits,
+                         command_timeout=command_timeout, safe_input=safe_input)
+
+
+def _check_interval_resolution(params: dict, model: StateSpaceModel) -> None:
+    resolution = params['observer.interval_resolution']
+    if resolution >= params['observer.max_gap']:
+        raise ConfigError('observer.interval_resolution', f'expected seconds in [0, '
+                          f'observer.max_gap = {params["observer.max_gap"]}), got {resolution}')
+    if resolution and model.is_discrete:
+        raise ConfigError('observer.interval_resolution', f'a discrete model (model.dt = '
+                          f'{model.dt}) has one period; expected 0, got {resolution}')
+
+
+def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> System:
+    """
+    Validate a flat parameter mapping and build every design it defines.
+
+    Parameters
+    ----------
+    params : mapping
+        ``{'model.A': [...], 'observer.type': 'chen', ...}``; missing names take their
+        defaults from the schema (:data:`observer_ros.config.schema.PARAMETERS`).
+    strict : bool
+        Reject names outside the schema (besides ROS's own).
+
+    Returns
+    -------
+    System
+
+    Raises
+    ------
+    ConfigError
+        The message starts with the parameter name and says what was expected. Design
+        failures (unobservable pair, unstable given gain...) are reported against the
+        parameter that caused them.
+
+    """
+    complete = complete_parameters(params, strict)
+    if not complete['model.A']:
+        raise ConfigError('model.A', 'missing: the model needs A, B and C')
+    try:
+        model = StateSpaceModel.from_flat(
+            complete['model.A'], complete['model.B'], complete['model.C'],
+            complete['model.D'], complete['model.dt'], complete['model.state_names'],
+            complete['model.input_names'], complete['model.output_names'])
+    except ConfigError as e:
+        raise named(e, 'model', 'model.A') from e
+    fallback = _observer_fallback(complete)
+    try:
+        observer = _design_observer(complete, model)
+    except (ConfigError, DesignError) as e:
+        raise named(e, 'observer', fallback) from e
+    except NUMERIC_FAILURES as e:
+        raise ConfigError(fallback, f'the design failed numerically ({e})') from e
+    _check_interval_resolution(complete, model)
+    initial = complete['observer.initial_state']
+    initial_estimate = (vector_from_flat('observer.initial_state', initial, model.n_states)
+                        if initial else None)
+    if initial_estimate is not None:
+        _check_inside('observer.initial_state', initial_estimate,
+                      complete['topics.x_hat.limit'], 'topics.x_hat.limit')
+    feedback = _feedback(complete, model)
+    plant = _plant(complete, model)
+    controller_tf, cl_poles, notes = None, None, []
+    if observer is not None and feedback is not None:
+        cl_poles = closed_loop_poles(model, observer.realization, feedback.design.gain)
+        if model.n_inputs == 1 and model.n_outputs == 1:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter('always')
+                controller_tf = controller_transfer_function(
+                    model, observer.realization, feedback.design.gain)
+            notes.extend(str(w.message) for w in caught)
+    return System(parameters=complete, model=model, observer=observer,
+                  observer_type=complete['observer.type'], initial_estimate=initial_estimate,
+                  feedback=feedback, plant=plant, controller_tf=controller_tf,
+                  closed_loop_poles=cl_poles, notes=tuple(notes))

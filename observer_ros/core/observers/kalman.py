@@ -1,0 +1,99 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Observer type ``kalman``: the Kalman filter, steady-state or time-varying.
+
+Design: the steady-state gain from the Riccati equations
+(:func:`~observer_ros.core.design.kalman.design_kalman`), which the report, the closed-loop
+analysis and ``controller_tf`` use. Runtime: with ``time_varying`` false (the default) the
+constant-``G`` :class:`~observer_ros.core.estimators.kalman.KalmanStep` (the DARE solved for
+each interval); with ``time_varying`` true the
+:class:`~observer_ros.core.estimators.time_varying_kalman.TimeVaryingKalman`, which
+propagates its covariance over each actual interval from ``initial_covariance``.
+"""
+
+import numpy as np
+
+from observer_ros.core.arguments import Argument, array, BOOL
+from observer_ros.core.design.kalman import design_kalman
+from observer_ros.core.errors import ConfigError
+from observer_ros.core.estimators import Estimator
+from observer_ros.core.estimators.kalman import KalmanStep
+from observer_ros.core.estimators.time_varying_kalman import TimeVaryingKalman
+from observer_ros.core.model import covariance_from_flat
+from observer_ros.core.observers import ObserverType, register, ReportItem
+from observer_ros.core.observers.common import FORM
+
+PROCESS_NOISE = array('process_noise', 'Kalman Q: n diagonal values or n x n row-major. '
+                      'Continuous model: intensity (discretized per interval); discrete model: '
+                      'covariance.', dynamic=True)
+MEASUREMENT_NOISE = array('measurement_noise', 'Kalman R: p diagonal values or p x p '
+                          'row-major; covariance of each sampled measurement (continuous '
+                          'model: intensity for the CARE design).', dynamic=True)
+TIME_VARYING = Argument('time_varying', BOOL, False,
+                        'Kalman: propagate the covariance over each actual interval (Joseph '
+                        'form) instead of the steady-state filter of each interval.')
+INITIAL_COVARIANCE = array('initial_covariance', 'Time-varying Kalman: P0, n diagonal values '
+                           'or n x n row-major (default: the identity); the first measurement '
+                           'updates (initial_state, P0).', dynamic=True)
+
+
+def vet(model, given):
+    """Refuse a gain or poles with a Kalman filter (its gain comes from the noises)."""
+    if given.get('gain') or given.get('poles'):
+        raise ConfigError('gain', 'a Kalman filter takes its gain from process_noise and '
+                          'measurement_noise; leave gain and poles empty')
+
+
+def design(model, values):
+    """Return the steady-state Kalman design of ``Q`` and ``R`` (None when neither given)."""
+    q, r = values['process_noise'], values['measurement_noise']
+    if not q and not r:
+        return None
+    if not q or not r:
+        missing = 'process_noise' if not q else 'measurement_noise'
+        raise ConfigError(missing, 'a Kalman filter needs both noise covariances')
+    if values['initial_covariance']:
+        p0 = covariance_from_flat('initial_covariance', values['initial_covariance'],
+                                  model.n_states)
+        if np.linalg.eigvalsh(p0).min() <= 0.0:
+            raise ConfigError('initial_covariance', 'expected a positive definite matrix')
+    return design_kalman(model, q, r)
+
+
+def estimator(design, values, initial_state=None, interval_resolution_ns=0):
+    """Return the steady-state (constant-``G``) or the time-varying filter."""
+    if values['time_varying']:
+        p0 = values['initial_covariance'] or None
+        if p0 is not None:
+            p0 = covariance_from_flat('initial_covariance', p0, design.model.n_states)
+        return TimeVaryingKalman(design.model, design.process_noise, design.measurement_noise,
+                                 p0, initial_state, interval_resolution_ns)
+    return Estimator(KalmanStep(design), initial_state,
+                     interval_resolution_ns=interval_resolution_ns)
+
+
+def report(design):
+    """Return the Riccati solution and, for a discrete model, the filter gain ``M``."""
+    items = [ReportItem('covariance', 'P', design.covariance)]
+    if design.filter_gain is not None:
+        items.append(ReportItem('filter_gain', 'M (filter gain; L = A M)', design.filter_gain))
+    return tuple(items)
+
+
+TYPE = register(ObserverType(
+    'kalman', 'Kalman filter (steady-state, or time-varying with observer.time_varying)',
+    (PROCESS_NOISE, MEASUREMENT_NOISE, TIME_VARYING, INITIAL_COVARIANCE, FORM), design,
+    estimator, report, vet))
