@@ -37,6 +37,7 @@ from observer_ros.bags.storage import (
     absolute_topic, BagError, read_topics, STORAGES, TopicData, TopicRequest, TopicToWrite,
     write_bag)
 from observer_ros.config import load_parameter_file, System, validate_parameters
+from observer_ros.config.schema import topic_names
 from observer_ros.core.evaluation import align
 
 NANOSECONDS = 1_000_000_000
@@ -48,9 +49,7 @@ TIME_BASE_SAMPLES = 4096
 def topic_request(system: System, key: str, topic: Optional[str] = None) -> TopicRequest:
     """Return what to read for the topic playing role ``key`` (``y``, ``u``, ``x_true`` ...)."""
     model = system.model
-    names = {'y': model.output_names, 'u': model.input_names, 'u_cmd': model.input_names,
-             'x_true': model.state_names, 'x_hat': model.state_names,
-             'reference': model.output_names, 'innovation': model.output_names}[key]
+    names = topic_names(model, key)
     params = system.parameters
     return TopicRequest(topic or key, params[f'topics.{key}.type'],
                         params[f'topics.{key}.field'], names)
@@ -134,7 +133,27 @@ def check_time_bases(outputs: TopicData, inputs: TopicData, max_gap_ns: int, bag
 
 @dataclass
 class ReplayResult:
-    """Estimates of a replay, with what was read and the stream's counters."""
+    """
+    Estimates of a replay, with what was read and the stream's counters.
+
+    Attributes
+    ----------
+    stamps_ns : numpy.ndarray of int64, shape (k,)
+        The stamp of each estimate (its measurement's).
+    estimates, innovations : numpy.ndarray, shapes (k, n) and (k, p)
+        ``x_hat`` and ``y - C x_prior``, as the observer node publishes them.
+    covariances : numpy.ndarray or None, shape (k, n, n)
+        Kalman filters: ``P`` of each estimate (``x_hat_covariance``).
+    innovation_covariances : numpy.ndarray or None, shape (k, p, p)
+        Kalman filters: ``S`` of each innovation (``innovation_covariance``).
+    nis : numpy.ndarray or None, shape (k,)
+        Kalman filters: ``v^T S^-1 v`` of each innovation (``nis``).
+    outputs, inputs : TopicData
+        What was read for ``y`` and ``u``.
+    counters : dict
+        The stream's counters (see :class:`observer_ros.core.streaming.StreamEstimator`).
+
+    """
 
     system: System
     bag: str
@@ -145,6 +164,9 @@ class ReplayResult:
     inputs: TopicData
     counters: dict = field(default_factory=dict)
     use_log_time: bool = False
+    covariances: Optional[np.ndarray] = None
+    innovation_covariances: Optional[np.ndarray] = None
+    nis: Optional[np.ndarray] = None
 
     def truth(self, topic: str = 'x_true') -> TopicData:
         """Read the true state (or another reference topic) from the bag, in the replay's time."""
@@ -225,7 +247,8 @@ def replay_bag(bag: Union[str, os.PathLike], parameters: Union[str, os.PathLike,
                            inputs.log_times_ns, outputs.log_times_ns)
     return ReplayResult(system, str(bag), result.stamps_ns, result.estimates,
                         result.innovations, outputs, inputs, dict(stream.counters),
-                        use_log_time)
+                        use_log_time, result.covariances, result.innovation_covariances,
+                        result.nis)
 
 
 def missing_parents(path: Path) -> list:

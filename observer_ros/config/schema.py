@@ -62,6 +62,31 @@ TOPICS = tuple(topic for topic, _, _ in TOPIC_ROLES)
 _OBS, _FB, _PL = (OBSERVER,), (FEEDBACK,), (PLANT,)
 
 
+def topic_names(model, topic: str) -> tuple:
+    """
+    Return the entry names of a vector topic for ``model`` (the joint names of a JointState).
+
+    ``y``, ``reference``, ``innovation``: the output names; ``u``, ``u_cmd``: the input
+    names; ``x_hat``, ``x_true``: the state names; ``x_hat_covariance``: ``"x1,x2"`` for each
+    pair of states, row-major; ``innovation_covariance`` the same for the outputs; ``nis``:
+    ``"nis"``.
+
+    Raises
+    ------
+    KeyError
+        ``topic`` is no vector topic of the package.
+
+    """
+    role = {name: role for name, role, _ in TOPIC_ROLES}[topic]
+    if role == 'nis':
+        return ('nis',)
+    base = {'output': model.output_names, 'input': model.input_names,
+            'state': model.state_names}[role.split()[0]]
+    if role.endswith('pair'):
+        return tuple(f'{row},{column}' for row in base for column in base)
+    return tuple(base)
+
+
 def _on(nodes: tuple, argument: Argument, prefix: str = '') -> Argument:
     """Return ``argument`` as the parameter ``prefix + name`` declared by ``nodes``."""
     return Argument(prefix + argument.name, argument.kind, argument.default,

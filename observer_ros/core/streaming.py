@@ -39,7 +39,7 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
-from observer_ros.core.estimators import StateEstimator
+from observer_ros.core.estimators import Prediction, StateEstimator
 
 #: Inputs kept at most (older ones are dropped once no interval can need them).
 MAX_INPUTS = 10_000
@@ -462,6 +462,16 @@ class StreamEstimator:
         prediction = estimator.predict(sample.stamp_ns + interval, u)
         return sample._replace(estimate=prediction.estimate,
                                covariance=prediction.covariance)
+
+    def predict(self, stamp_ns: int) -> Prediction:
+        """
+        Return the estimate predicted to ``stamp_ns`` with the latest input stamped by then.
+
+        The estimator is not changed (``observer.publish_rate`` publishes these).
+        """
+        index = bisect.bisect_right(self._input_stamps, int(stamp_ns)) - 1
+        u = self._inputs[index] if index >= 0 else self._zero_input
+        return self.estimator.predict(int(stamp_ns), u)
 
     def prepare(self) -> None:
         """

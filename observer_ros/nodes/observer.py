@@ -15,9 +15,12 @@
 """
 ``observer``: subscribe ``y`` and ``u``, publish the state estimate ``x_hat``.
 
-Also publishes ``innovation`` (``y - C x_hat_prior``), ``x_hat_covariance`` (Kalman,
-``std_msgs/Float64MultiArray``, n x n row-major) and counters on ``/diagnostics``; offers
-``~/reset`` (``std_srvs/Trigger``).
+Also publishes ``innovation`` (``y - C x_hat_prior``) and, for a Kalman filter,
+``x_hat_covariance`` (``P``, n x n row-major), ``innovation_covariance`` (``S``, p x p) and
+``nis`` (``v^T S^-1 v``), each stamped like the ``x_hat`` it belongs to; counters on
+``/diagnostics``; offers ``~/reset`` (``std_srvs/Trigger``). With ``observer.publish_rate``
+it also publishes, at that rate on its clock, the estimate (and covariance) predicted to that
+time.
 """
 
 from collections import Counter
@@ -26,12 +29,12 @@ from typing import Optional
 
 import numpy as np
 from rclpy.clock import Clock, ClockType
-from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 
 from observer_ros.config import OBSERVER
 from observer_ros.core.errors import ConfigError, ObserverRosError
 from observer_ros.core.placement import preload_methods
+from observer_ros.core.streaming import EstimateSample, within_limit
 from observer_ros.ros.diagnostics import DiagnosticsPublisher
 from observer_ros.ros.messages import MalformedMessage, VectorCodec
 from observer_ros.ros.parameters import ConfiguredNode, run_node
@@ -40,6 +43,9 @@ NANOSECONDS = 1_000_000_000
 
 #: How long a node-clock reading serves the clock tolerance check (see ``_clock_for``).
 CLOCK_REUSE_NS = 100_000_000
+
+#: Topics a Kalman filter adds to x_hat and the innovation.
+KALMAN_TOPICS = ('x_hat_covariance', 'innovation_covariance', 'nis')
 
 #: Errors a per-interval design may raise on a sample (the sample is dropped and counted).
 STEP_ERRORS = (ObserverRosError, np.linalg.LinAlgError, ValueError, ArithmeticError)
@@ -53,16 +59,15 @@ class ObserverNode(ConfiguredNode):
         system = self.system
         self.vet_system(system)
         preload_methods()  # no placement method may import a module on a callback path
-        self.codecs = {topic: VectorCodec.for_topic(system, topic)
-                       for topic in ('y', 'u', 'x_hat', 'innovation')}
         self.stream = system.make_stream()
+        kalman = system.observer.kind == 'kalman'
+        topics = ('y', 'u', 'x_hat', 'innovation') + (KALMAN_TOPICS if kalman else ())
+        self.codecs = {topic: VectorCodec.for_topic(system, topic) for topic in topics}
         self.n_states, self.x_hat_codec = system.model.n_states, self.codecs['x_hat']
         self.node_counters: Counter = Counter()
-        self.x_hat_publisher = self._publisher('x_hat')
-        self.innovation_publisher = self._publisher('innovation')
-        self.covariance_publisher = (
-            self.topic_publisher(Float64MultiArray, 'x_hat_covariance')
-            if system.observer.kind == 'kalman' else None)
+        self.publishers_ = {topic: self._publisher(topic) for topic in topics[2:]}
+        self.x_hat_publisher = self.publishers_['x_hat']
+        self.limits = {topic: system.parameters[f'topics.{topic}.limit'] for topic in topics}
         self.topic_subscription(self.codecs['y'].message_class, 'y', self._on_measurement)
         self.topic_subscription(self.codecs['u'].message_class, 'u', self._on_input)
         self.create_service(Trigger, '~/reset', self._on_reset)
@@ -74,6 +79,10 @@ class ObserverNode(ConfiguredNode):
         self.wait_timer.cancel()
         self._waiting_for = None
         self.diagnostics = DiagnosticsPublisher(self, self.counters)
+        rate = system.parameters['observer.publish_rate']
+        self.prediction_timer = (self.create_timer(1.0 / rate, self._on_prediction_time)
+                                 if rate else None)
+        self._last_published_ns = -1
         self.get_logger().info(
             f'{system.observer.kind} observer of order {system.observer.order}, poles '
             f'{[complex(p) for p in system.observer.achieved_poles]}')
@@ -173,7 +182,9 @@ class ObserverNode(ConfiguredNode):
             return
         n = self.n_states
         self.x_hat_publisher.publish(self.x_hat_codec.encode(stamp, result[:n]))
-        self._publish_rest([(stamp, result[n:], self.stream.estimator.covariance)])
+        estimator = self.stream.estimator
+        self._publish_rest([EstimateSample(stamp, None, result[n:], estimator.covariance,
+                                           estimator.innovation_covariance, estimator.nis)])
 
     def _on_wait_expired(self) -> None:
         self.wait_timer.cancel()
@@ -217,21 +228,53 @@ class ObserverNode(ConfiguredNode):
         for sample in samples:  # x_hat first: a controller waits for it
             self.x_hat_publisher.publish(
                 self.codecs['x_hat'].encode(sample.stamp_ns, sample.estimate))
-        self._publish_rest([(s.stamp_ns, s.innovation, s.covariance) for s in samples])
+        self._publish_rest(samples)
 
     def _publish_rest(self, samples) -> None:
-        """Publish what follows x_hat: events, innovation, covariance; prepare the next."""
+        """Publish what follows x_hat: events, innovation, covariances, NIS; prepare."""
         for kind, text in self.stream.events:
             self.warn_once(kind, text)
         self.stream.events.clear()
-        for stamp, innovation, covariance in samples:
-            self.innovation_publisher.publish(
-                self.codecs['innovation'].encode(stamp, innovation))
-            if self.covariance_publisher is not None and covariance is not None:
-                self.covariance_publisher.publish(
-                    Float64MultiArray(data=covariance.ravel().tolist()))
+        for sample in samples:
+            stamp = sample.stamp_ns
+            self._last_published_ns = max(self._last_published_ns, stamp)
+            self._publish_on('innovation', stamp, sample.innovation)
+            if sample.covariance is not None:
+                self._publish_on('x_hat_covariance', stamp, np.ravel(sample.covariance))
+            if sample.innovation_covariance is not None:
+                self._publish_on('innovation_covariance', stamp,
+                                 np.ravel(sample.innovation_covariance))
+                self._publish_on('nis', stamp, [sample.nis])
         if samples:
             self.stream.prepare()  # the next step's known part, now that x_hat is out
+
+    def _publish_on(self, topic: str, stamp: int, values) -> None:
+        """Publish ``values`` on one of the estimate's topics, if it has that topic."""
+        publisher = self.publishers_.get(topic)
+        if publisher is None:
+            return
+        if not within_limit(np.asarray(values, dtype=float), self.limits[topic]):
+            self.node_counters['out_of_range'] += 1
+            self.warn_once(f'{topic} out of range', f'{topic} not published: a value is '
+                           f'beyond topics.{topic}.limit = {self.limits[topic]:g}')
+            return
+        publisher.publish(self.codecs[topic].encode(stamp, values))
+
+    def _on_prediction_time(self) -> None:
+        """``observer.publish_rate``: the estimate predicted to now, stamped now."""
+        now = self.get_clock().now().nanoseconds
+        stream = self.stream
+        if stream.estimator.stamp_ns is None or now <= self._last_published_ns:
+            return
+        prediction = stream.predict(now)
+        if not within_limit(prediction.estimate, self.limits['x_hat']):
+            self.node_counters['out_of_range'] += 1
+            return
+        self.x_hat_publisher.publish(self.x_hat_codec.encode(now, prediction.estimate))
+        if prediction.covariance is not None:
+            self._publish_on('x_hat_covariance', now, np.ravel(prediction.covariance))
+        self.node_counters['predictions'] += 1
+        self._last_published_ns = now
 
     def _on_reset(self, request, response):
         self.stream.reset()

@@ -32,11 +32,12 @@ from typing import Optional, Sequence
 import numpy as np
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from observer_ros.bags.cdr import (
     DecodeError, HEADER, MessageReader, MessageWriter)
 from observer_ros.config import System
+from observer_ros.config.schema import topic_names
 
 MESSAGE_CLASSES = {'joint_state': JointState, 'float64_multi_array': Float64MultiArray}
 
@@ -91,14 +92,19 @@ class VectorCodec:
         JointState field holding the values.
     names : sequence of str
         Joint names, in vector order.
+    shape : tuple of int, optional
+        ``(rows, columns)`` of a matrix carried row-major: a Float64MultiArray then fills
+        its layout (dimensions ``rows`` and ``columns`` with their sizes and strides).
 
     """
 
-    def __init__(self, topic: str, kind: str, field: str, names: Sequence[str]) -> None:
+    def __init__(self, topic: str, kind: str, field: str, names: Sequence[str],
+                 shape: Optional[tuple] = None) -> None:
         self.topic = topic
         self.kind = kind
         self.field = field
         self.names = list(names)
+        self.shape = shape
         self.size = len(self.names)
         self.message_class = MESSAGE_CLASSES[kind]
         self.stamped = kind == 'joint_state'
@@ -111,13 +117,12 @@ class VectorCodec:
     def for_topic(cls, system: System, topic: str) -> 'VectorCodec':
         """Codec of a topic configured by ``topics.<topic>.*`` and the model names."""
         model = system.model
-        names = {'y': model.output_names, 'reference': model.output_names,
-                 'innovation': model.output_names, 'u': model.input_names,
-                 'u_cmd': model.input_names, 'x_hat': model.state_names,
-                 'x_true': model.state_names}[topic]
+        names = topic_names(model, topic)
         params = system.parameters
+        side = math.isqrt(len(names))
+        shape = (side, side) if topic.endswith('_covariance') else None
         return cls(topic, params[f'topics.{topic}.type'], params[f'topics.{topic}.field'],
-                   names)
+                   names, shape)
 
     def encode(self, stamp_ns: int, vector) -> bytes:
         """
@@ -137,7 +142,13 @@ class VectorCodec:
         """Build a message object holding ``vector`` (stamped when the type has a header)."""
         values = [float(value) for value in vector]
         if self.kind == 'float64_multi_array':
-            return Float64MultiArray(data=values)
+            message = Float64MultiArray(data=values)
+            if self.shape is not None:
+                rows, columns = self.shape
+                message.layout.dim = [
+                    MultiArrayDimension(label='rows', size=rows, stride=rows * columns),
+                    MultiArrayDimension(label='columns', size=columns, stride=columns)]
+            return message
         message = JointState(name=self.names)
         ns_to_stamp(message.header.stamp, stamp_ns)
         setattr(message, self.field, values)

@@ -109,6 +109,7 @@ class TimeVaryingKalman(StateEstimator):
         self._pinned = None
         self.initial_state = initial_state
         self._resolution_ns = 0
+        self._last_key_dt = self._last_sampled = None
         self._cache: OrderedDict = OrderedDict()
         self._recent: OrderedDict = OrderedDict()
         self.interval_resolution_ns = interval_resolution_ns
@@ -182,6 +183,7 @@ class TimeVaryingKalman(StateEstimator):
             self._resolution_ns = value
             self._cache.clear()
             self._recent.clear()
+            self._last_key_dt = self._last_sampled = None
 
     def recent_intervals(self) -> list:
         """Return the last few distinct intervals (ns) sampled, newest first."""
@@ -190,6 +192,14 @@ class TimeVaryingKalman(StateEstimator):
     # --- the filter ----------------------------------------------------------------------
 
     def _sampled(self, dt_ns: int, remember: bool = True) -> tuple:
+        if dt_ns == self._last_key_dt:
+            return self._last_sampled
+        sampled = self._lookup(dt_ns, remember)
+        if remember:
+            self._last_key_dt, self._last_sampled = dt_ns, sampled
+        return sampled
+
+    def _lookup(self, dt_ns: int, remember: bool) -> tuple:
         if self.model.is_discrete:
             key = 0
         else:
@@ -225,17 +235,22 @@ class TimeVaryingKalman(StateEstimator):
         c, r = self.model.c, self.measurement_noise
         pc = p_prior @ c.T
         s = c @ pc + r
-        s = 0.5 * (s + s.T)
-        factor = np.linalg.cholesky(s)
-        k = np.linalg.solve(factor.T, np.linalg.solve(factor, pc.T)).T  # P- C^T S^-1
         innovation = y - c @ x_prior
-        whitened = np.linalg.solve(factor, innovation)
+        if self.n_outputs == 1:  # S is a number: no factorisation
+            variance = s[0, 0]
+            k = pc / variance
+            nis = innovation[0] * innovation[0] / variance
+        else:
+            s = 0.5 * (s + s.T)
+            factor = np.linalg.cholesky(s)
+            k = np.linalg.solve(factor.T, np.linalg.solve(factor, pc.T)).T  # P- C^T S^-1
+            whitened = np.linalg.solve(factor, innovation)
+            nis = whitened @ whitened
         correction = self._identity - k @ c
-        p = correction @ p_prior @ correction.T + k @ r @ k.T
+        p = correction @ p_prior @ correction.T + k @ r @ k.T  # Joseph form
         self._x = x_prior + k @ innovation
         self._p = 0.5 * (p + p.T)
-        self._innovation, self._s, self._k = innovation, s, k
-        self._nis = float(whitened @ whitened)
+        self._innovation, self._s, self._k, self._nis = innovation, s, k, float(nis)
 
     def update(self, stamp_ns: int, y, u) -> np.ndarray:
         """
