@@ -198,9 +198,8 @@ def test_the_configured_type_runs_the_time_varying_filter_through_the_stream():
 
 @pytest.mark.parametrize('kind', ['full_order', 'kalman', 'kalman_tv'])
 def test_the_delayed_form_is_the_one_step_prediction(kind):
-    base = load_parameter_file(str(CONFIG_DIR / ('seed003_full_order.yaml'
-                                                  if kind == 'full_order' else
-                                                  'kalman_noisy.yaml')))
+    name = 'seed003_full_order.yaml' if kind == 'full_order' else 'kalman_noisy.yaml'
+    base = load_parameter_file(str(CONFIG_DIR / name))
     if kind == 'kalman_tv':
         base['observer.time_varying'] = True
     current = validate_parameters(base)
