@@ -126,7 +126,7 @@ def test_import_is_cheap_and_loads_python_control_only_when_asked():
         'for name in oc.__all__:\n'
         '    getattr(oc, name)\n'
         "print('control' in sys.modules)\n"
-        "oc.place([[0.0]], [[1.0]], [-1.0], method='varga')\n"
+        'oc.StateSpaceModel.from_flat([0.0], [1.0], [1.0]).to_statespace()\n'
         "print('control' in sys.modules)\n")
     result = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True,
                             check=True)

@@ -47,6 +47,18 @@ DISCRETE = oc.StateSpaceModel.from_matrices([[1, 0.1], [0, 1]], [[0], [0.1]], [[
 EYE2 = [1, 0, 0, 1]
 
 
+class TransferFunctionLike:
+    """Has no A, B, C, D: not a state-space system."""
+
+    dt = 0
+
+
+class UnspecifiedPeriod:
+    """A state-space system with python-control's ``dt=True`` (discrete, no period)."""
+
+    A, B, C, D, dt = [[0.5]], [[1.0]], [[1.0]], [[0.0]], True
+
+
 # (function, call, error class, argument named)
 CASES = [
     (oc.StateSpaceModel.from_flat, lambda: oc.StateSpaceModel.from_flat([1, 2, 3], [1], [1]),
@@ -79,6 +91,10 @@ CASES = [
     (oc.StateSpaceModel.from_matrices,
      lambda: oc.StateSpaceModel.from_matrices(np.eye(2), [[1], [2]], [[1, 0]], [[1, 2]]),
      ConfigError, 'D'),
+    (oc.StateSpaceModel.from_statespace,
+     lambda: oc.StateSpaceModel.from_statespace(TransferFunctionLike()), ConfigError, 'sys'),
+    (oc.StateSpaceModel.from_statespace,
+     lambda: oc.StateSpaceModel.from_statespace(UnspecifiedPeriod()), ConfigError, 'sys'),
     (oc.StateSpaceModel.transformed, lambda: DI.transformed(np.zeros((2, 2))),
      ConfigError, 'transform'),
     (oc.observability, lambda: oc.observability(np.eye(2), [[1, 0, 0]]), ConfigError, 'C'),

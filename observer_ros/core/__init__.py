@@ -22,14 +22,16 @@ with no parameter file::
     import observer_ros.core as oc
 
 Names are loaded on first use, so ``import observer_ros.core`` is cheap; python-control is
-imported only by the functions that need it (Varga's placement method). Errors name the function's
+imported only by the functions that need it (:meth:`StateSpaceModel.from_statespace`,
+:meth:`StateSpaceModel.to_statespace`, Varga's placement method). Errors name the function's
 own arguments (``gain: expected 2x1 (2 values, row-major), got 3``); see
 :mod:`observer_ros.core.errors` for the convention.
 
 Contents
 --------
 Model
-    :class:`StateSpaceModel`, :func:`zero_order_hold`, :func:`van_loan`.
+    :class:`StateSpaceModel` (with conversion from and to ``control.StateSpace``),
+    :func:`zero_order_hold`, :func:`van_loan`.
 Analysis
     :func:`observability`, :func:`controllability`, :class:`RankReport`,
     :func:`observability_matrix`, :func:`controllability_matrix`, :func:`pbh_lost_modes`,

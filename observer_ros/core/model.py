@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-State-space models built from flat, row-major lists or from 2-D arrays.
+State-space models built from flat, row-major lists, from 2-D arrays or from python-control.
 
 Errors name the matrices ``A``, ``B``, ``C``, ``D`` and the other fields (``dt``,
 ``state_names``...) as :mod:`observer_ros.core.errors` describes. The ``*_from_flat``
@@ -22,6 +22,7 @@ helpers take the name to report as their first argument.
 
 from dataclasses import dataclass
 import math
+import re
 from typing import Any, Optional, Sequence
 
 import numpy as np
@@ -29,6 +30,9 @@ import numpy as np
 from observer_ros.core.errors import ConfigError
 
 ArrayLike = Sequence[float] | np.ndarray
+
+#: Signal names python-control makes up when none are given (``x[0]``, ``u[1]``...).
+_CONTROL_DEFAULT_NAME = re.compile(r'^[xuy]\[\d+\]$')
 
 
 def _as_finite_vector(parameter: str, values: ArrayLike) -> np.ndarray:
@@ -249,8 +253,9 @@ class StateSpaceModel:
 
     ``dt == 0`` means continuous time; ``dt > 0`` a discrete-time model
     ``x[k+1] = A x[k] + B u[k]`` with that period, in seconds. Build one with
-    :meth:`from_matrices` (2-D arrays) or :meth:`from_flat` (row-major lists, as ROS
-    parameters hold them); the constructor itself checks nothing.
+    :meth:`from_matrices` (2-D arrays), :meth:`from_flat` (row-major lists, as ROS
+    parameters hold them) or :meth:`from_statespace` (a ``control.StateSpace``); the
+    constructor itself checks nothing.
 
     Parameters
     ----------
@@ -470,6 +475,94 @@ class StateSpaceModel:
             d_flat = d.ravel()
         return cls.from_flat(a.ravel(), b.ravel(), c.ravel(), d_flat, dt,
                              state_names, input_names, output_names)
+
+    @classmethod
+    def from_statespace(cls, sys: Any) -> 'StateSpaceModel':
+        """
+        Build a model from a python-control ``StateSpace`` system.
+
+        Parameters
+        ----------
+        sys : control.StateSpace
+            Continuous (``sys.dt`` 0, or None for an unspecified time base, taken as
+            continuous) or discrete with a period (``sys.dt > 0``). Its state, input and
+            output labels become the model's names, unless they are the ones
+            python-control makes up (``x[0]``, ``u[0]``, ``y[0]``...).
+
+        Returns
+        -------
+        StateSpaceModel
+
+        Raises
+        ------
+        ConfigError
+            Naming ``sys`` when it is not a state-space system (convert a transfer function
+            with ``control.ss`` first, choosing the realization) or is discrete with an
+            unspecified period (``dt=True``); naming ``A`` ... ``D`` as :meth:`from_flat`
+            does for empty or non-finite matrices.
+
+        Examples
+        --------
+        >>> import control
+        >>> from observer_ros.core import StateSpaceModel
+        >>> cart = control.ss([[0, 1], [0, 0]], [[0], [1]], [[1, 0]], 0, 0.01,
+        ...                   states=['position', 'velocity'], inputs=['force'])
+        >>> model = StateSpaceModel.from_statespace(cart)
+        >>> model.dt, model.state_names, model.input_names, model.output_names
+        (0.01, ('position', 'velocity'), ('force',), ('y1',))
+
+        """
+        matrices = [getattr(sys, name, None) for name in ('A', 'B', 'C', 'D')]
+        if any(matrix is None for matrix in matrices) or not hasattr(sys, 'dt'):
+            raise ConfigError(
+                'sys', f'expected a control.StateSpace system, got {type(sys).__name__}; '
+                'convert a transfer function with control.ss(sys), which chooses the states')
+        dt = sys.dt
+        if dt is None:
+            dt = 0.0
+        elif dt is True:
+            raise ConfigError(
+                'sys', 'the system is discrete with an unspecified period (dt=True); set '
+                'its period in seconds (control.ss(..., dt=0.01))')
+
+        def labels(name: str) -> Optional[list]:
+            values = list(getattr(sys, name, None) or [])
+            if not values or all(_CONTROL_DEFAULT_NAME.match(str(v)) for v in values):
+                return None
+            return values
+
+        return cls.from_matrices(*matrices, dt=dt, state_names=labels('state_labels'),
+                                 input_names=labels('input_labels'),
+                                 output_names=labels('output_labels'))
+
+    def to_statespace(self) -> Any:
+        """
+        Return the model as a python-control ``StateSpace`` system, with its names.
+
+        Returns
+        -------
+        control.StateSpace
+            ``dt`` 0 (continuous) or the period; the state, input and output labels are the
+            model's names.
+
+        Examples
+        --------
+        >>> import observer_ros.core as oc
+        >>> model = oc.StateSpaceModel.from_matrices([[-1]], [[1]], [[2]], dt=0.0,
+        ...                                          state_names=['speed'])
+        >>> sys = model.to_statespace()
+        >>> sys.dt, sys.state_labels, float(sys.dcgain())
+        (0, ['speed'], 2.0)
+        >>> back = oc.StateSpaceModel.from_statespace(sys)
+        >>> back.state_names, back.input_names, bool((back.c == model.c).all())
+        (('speed',), ('u1',), True)
+
+        """
+        import control  # about a second to import, so only when asked
+        dt = self.dt if self.is_discrete else 0
+        return control.ss(self.a, self.b, self.c, self.d, dt,
+                          states=list(self.state_names), inputs=list(self.input_names),
+                          outputs=list(self.output_names))
 
     def transformed(self, transform: ArrayLike) -> 'StateSpaceModel':
         """
