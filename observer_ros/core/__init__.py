@@ -12,4 +12,143 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The ROS-free core: models, analysis, pole placement, designs and estimators."""
+"""
+The ROS-free core: models, analysis, pole placement, designs, estimators and simulation.
+
+``observer_ros.core`` is a flat namespace in the style of python-control: build a model,
+check it, design an observer and a state feedback, and run the estimator, all from Python
+with no parameter file::
+
+    import observer_ros.core as oc
+
+Names are loaded on first use, so ``import observer_ros.core`` is cheap; python-control is
+imported only by the functions that need it (:meth:`StateSpaceModel.from_statespace`,
+:meth:`StateSpaceModel.to_statespace`, Varga's placement method). Errors name the function's
+own arguments (``gain: expected 2x1 (2 values, row-major), got 3``); see
+:mod:`observer_ros.core.errors` for the convention.
+
+Contents
+--------
+Model
+    :class:`StateSpaceModel` (with conversion from and to ``control.StateSpace``),
+    :func:`zero_order_hold`, :func:`van_loan`.
+Analysis
+    :func:`observability`, :func:`controllability`, :class:`RankReport`,
+    :func:`observability_matrix`, :func:`controllability_matrix`, :func:`pbh_lost_modes`,
+    :func:`require_observable`, :func:`require_controllable`.
+Poles
+    :func:`parse_poles`, :func:`parse_pole`, :func:`damping_pair`, :func:`clean_poles`,
+    :func:`sort_poles`, :func:`is_stable`, :func:`to_discrete`,
+    :func:`slowest_allowed_pole`, :func:`poles_meeting_error_spec`.
+Placement
+    :func:`place`, :func:`place_observer`, :class:`PlacementResult`, :data:`METHODS`,
+    :func:`placement_residual`.
+Designs
+    :func:`design_full_order`, :func:`design_reduced_order`, :func:`design_chen`,
+    :func:`design_kalman`, :func:`design_sampled_kalman`, :func:`design_feedback` and their
+    results (:class:`ObserverDesign`, :class:`ReducedOrderDesign`, :class:`ChenDesign`,
+    :class:`KalmanDesign`, :class:`FeedbackDesign`, :class:`ObserverRealization`);
+    :func:`full_order_gain`, :func:`full_order_realization`,
+    :func:`measured_first_transform`, :func:`reference_gain`.
+Observer-controller
+    :func:`controller_transfer_function`, :func:`diophantine_controller`,
+    :func:`solve_diophantine`, :func:`controller_state_space`, :func:`closed_loop_matrix`,
+    :func:`closed_loop_poles`, :class:`ControllerTransferFunction`,
+    :class:`UnstableControllerWarning`, :class:`StateFeedbackLaw`.
+Estimators
+    :func:`make_estimator`, :func:`step_design_for`, :class:`Estimator`,
+    :class:`StreamEstimator`.
+Simulation and evaluation
+    :class:`PlantSimulator`, :func:`error_report`, :class:`ErrorReport`,
+    :func:`format_error_table`, :func:`settling_time`, :func:`decay_rate`.
+Errors
+    :class:`ObserverRosError`, :class:`ConfigError`, :class:`DesignError`,
+    :class:`StampError`.
+
+Examples
+--------
+A double integrator measured in position, an observer four times faster than the loop:
+
+>>> import numpy as np
+>>> import observer_ros.core as oc
+>>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+>>> oc.observability(model.a, model.c).full_rank
+True
+>>> observer = oc.design_full_order(model, poles=[-8, -9])
+>>> print(np.round(observer.gain, 6))
+[[17.]
+ [72.]]
+>>> feedback = oc.design_feedback(model, poles=[-2, -2.5])
+>>> print(np.round(feedback.gain, 6))
+[[5.  4.5]]
+
+Simulate the plant at 100 Hz from ``x = [1, 0]`` and estimate from ``x_hat = [0, 0]``:
+
+>>> plant = oc.PlantSimulator(model, initial_state=[1.0, 0.0])
+>>> estimator = oc.make_estimator(observer, initial_state=[0.0, 0.0])
+>>> u = np.zeros(1)
+>>> for k in range(1, 301):
+...     x = plant.step(u, 0.01)
+...     x_hat = estimator.update(k * 10_000_000, plant.measure(), u)
+>>> bool(np.linalg.norm(x - x_hat) < 1e-6)
+True
+
+"""
+
+import importlib
+
+#: Where each public name lives, by module (names are imported on first use).
+_EXPORTS = {
+    'observer_ros.core.errors': (
+        'ObserverRosError', 'ConfigError', 'DesignError', 'StampError'),
+    'observer_ros.core.model': ('StateSpaceModel',),
+    'observer_ros.core.discretize': ('zero_order_hold', 'van_loan'),
+    'observer_ros.core.analysis': (
+        'RankReport', 'observability', 'controllability', 'observability_matrix',
+        'controllability_matrix', 'pbh_lost_modes', 'require_observable',
+        'require_controllable'),
+    'observer_ros.core.poles': (
+        'parse_poles', 'parse_pole', 'damping_pair', 'clean_poles', 'is_stable',
+        'to_discrete', 'slowest_allowed_pole', 'poles_meeting_error_spec'),
+    'observer_ros.core.placement': (
+        'METHODS', 'PlacementResult', 'place', 'place_observer', 'placement_residual',
+        'sort_poles'),
+    'observer_ros.core.design.common': ('ObserverDesign', 'ObserverRealization'),
+    'observer_ros.core.design.full_order': (
+        'design_full_order', 'full_order_gain', 'full_order_realization'),
+    'observer_ros.core.design.reduced_order': (
+        'ReducedOrderDesign', 'design_reduced_order', 'measured_first_transform'),
+    'observer_ros.core.design.chen': ('ChenDesign', 'design_chen'),
+    'observer_ros.core.design.kalman': (
+        'KalmanDesign', 'design_kalman', 'design_sampled_kalman'),
+    'observer_ros.core.design.feedback': ('FeedbackDesign', 'design_feedback', 'reference_gain'),
+    'observer_ros.core.design.controller': (
+        'ControllerTransferFunction', 'UnstableControllerWarning',
+        'controller_transfer_function', 'diophantine_controller', 'solve_diophantine',
+        'controller_state_space', 'closed_loop_matrix', 'closed_loop_poles'),
+    'observer_ros.core.control': ('StateFeedbackLaw',),
+    'observer_ros.core.estimators': ('Estimator', 'make_estimator', 'step_design_for'),
+    'observer_ros.core.streaming': ('StreamEstimator',),
+    'observer_ros.core.simulation': ('PlantSimulator',),
+    'observer_ros.core.evaluation': (
+        'ErrorReport', 'error_report', 'format_error_table', 'settling_time', 'decay_rate'),
+}
+
+_MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}
+
+__all__ = sorted(_MODULE_OF)
+
+
+def __getattr__(name: str):
+    """Import a public name from its module on first use (PEP 562)."""
+    module = _MODULE_OF.get(name)
+    if module is None:
+        raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list:
+    """List the public names with the module's own, for tab completion."""
+    return sorted(set(globals()) | set(__all__))

@@ -18,6 +18,8 @@ from typing import Optional
 
 import numpy as np
 
+from observer_ros.core.errors import ConfigError
+
 
 class StateFeedbackLaw:
     """
@@ -25,21 +27,73 @@ class StateFeedbackLaw:
 
     Parameters
     ----------
-    gain : numpy.ndarray, shape (m, n)
-    reference_gain : numpy.ndarray or None, shape (m, p)
-        None: references are ignored.
-    input_limits : numpy.ndarray or None, shape (m, 2)
+    gain : array_like, shape (m, n)
+        ``K``.
+    reference_gain : array_like or None, shape (m, p)
+        ``N``; None: references are ignored.
+    input_limits : array_like or None, shape (m, 2)
+        ``[min, max]`` per input; None: no clipping.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``gain``, ``reference_gain`` or ``input_limits`` when the shapes disagree.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import observer_ros.core as oc
+    >>> law = oc.StateFeedbackLaw([[5.0, 4.5]], reference_gain=[[5.0]],
+    ...                           input_limits=[[-10.0, 10.0]])
+    >>> law.command(np.array([1.0, 0.0]), reference=np.array([2.0])).tolist()
+    [5.0]
+    >>> law.command(np.array([4.0, 0.0])).tolist()
+    [-10.0]
 
     """
 
     def __init__(self, gain: np.ndarray, reference_gain: Optional[np.ndarray] = None,
                  input_limits: Optional[np.ndarray] = None) -> None:
-        self.gain = np.asarray(gain, dtype=float)
+        self.gain = np.atleast_2d(np.asarray(gain, dtype=float))
+        if self.gain.ndim != 2:
+            raise ConfigError('gain', f'expected an m x n matrix, got shape {self.gain.shape}')
+        n_inputs = self.gain.shape[0]
+        if reference_gain is not None:
+            reference_gain = np.atleast_2d(np.asarray(reference_gain, dtype=float))
+            if reference_gain.ndim != 2 or reference_gain.shape[0] != n_inputs:
+                raise ConfigError('reference_gain', f'expected a {n_inputs} x p matrix, got '
+                                  f'shape {reference_gain.shape}')
+        if input_limits is not None:
+            input_limits = np.atleast_2d(np.asarray(input_limits, dtype=float))
+            if input_limits.shape != (n_inputs, 2):
+                raise ConfigError('input_limits', f'expected a {n_inputs} x 2 matrix '
+                                  f'([min, max] per input), got shape {input_limits.shape}')
         self.reference_gain = reference_gain
         self.input_limits = input_limits
 
     def command(self, estimate: np.ndarray, reference: Optional[np.ndarray] = None):
-        """Return the command for an estimate and an optional reference."""
+        """
+        Return the command for an estimate and an optional reference.
+
+        Parameters
+        ----------
+        estimate : numpy.ndarray, shape (n,)
+            ``x_hat``.
+        reference : numpy.ndarray, shape (p,), optional
+            ``r``; ignored without a reference gain.
+
+        Returns
+        -------
+        numpy.ndarray, shape (m,)
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from observer_ros.core import StateFeedbackLaw
+        >>> StateFeedbackLaw([[1.0, 2.0]]).command(np.array([1.0, 1.0])).tolist()
+        [-3.0]
+
+        """
         u = -self.gain @ estimate
         if reference is not None and self.reference_gain is not None:
             u = u + self.reference_gain @ reference

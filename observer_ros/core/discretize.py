@@ -14,10 +14,18 @@
 
 """Exact sampling of continuous-time models: zero-order hold and Van Loan's method."""
 
+import math
 from typing import Optional
 
 import numpy as np
 import scipy.linalg
+
+from observer_ros.core.errors import ConfigError
+
+
+def _check_interval(dt: float) -> None:
+    if not (math.isfinite(dt) and dt > 0.0):
+        raise ConfigError('dt', f'expected a finite sample interval > 0 s, got {dt}')
 
 
 def zero_order_hold(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -38,7 +46,26 @@ def zero_order_hold(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray
     bd : numpy.ndarray, shape (n, m)
         ``integral_0^dt expm(A s) ds B``.
 
+    Raises
+    ------
+    ConfigError
+        Naming ``dt`` when it is not a finite interval > 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import observer_ros.core as oc
+    >>> a, b = np.array([[0.0, 1.0], [0.0, 0.0]]), np.array([[0.0], [1.0]])
+    >>> ad, bd = oc.zero_order_hold(a, b, 0.1)
+    >>> print(ad.round(6))
+    [[1.  0.1]
+     [0.  1. ]]
+    >>> print(bd.round(6))
+    [[0.005]
+     [0.1  ]]
+
     """
+    _check_interval(dt)
     n_states, n_inputs = b.shape
     block = np.zeros((n_states + n_inputs, n_states + n_inputs))
     block[:n_states, :n_states] = a * dt
@@ -61,11 +88,26 @@ def van_loan(a: np.ndarray, process_noise: np.ndarray, dt: float) -> np.ndarray:
     process_noise : numpy.ndarray, shape (n, n)
         Continuous-time intensity ``Q``.
     dt : float
+        Sample interval, > 0.
 
     Returns
     -------
     numpy.ndarray, shape (n, n)
         Symmetric ``Qd``.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``dt`` when it is not a finite interval > 0.
+
+    Examples
+    --------
+    A random walk ``x' = w`` gathers ``Q dt`` over ``dt``:
+
+    >>> import numpy as np
+    >>> import observer_ros.core as oc
+    >>> oc.van_loan(np.zeros((1, 1)), np.array([[2.0]]), 0.1).round(12).tolist()
+    [[0.2]]
 
     References
     ----------
@@ -73,6 +115,7 @@ def van_loan(a: np.ndarray, process_noise: np.ndarray, dt: float) -> np.ndarray:
     Automatic Control 23(3), 1978.
 
     """
+    _check_interval(dt)
     n_states = a.shape[0]
     block = np.zeros((2 * n_states, 2 * n_states))
     block[:n_states, :n_states] = -a * dt

@@ -12,17 +12,27 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""State-space models built from flat, row-major parameter lists."""
+"""
+State-space models built from flat, row-major lists, from 2-D arrays or from python-control.
+
+Errors name the matrices ``A``, ``B``, ``C``, ``D`` and the other fields (``dt``,
+``state_names``...) as :mod:`observer_ros.core.errors` describes. The ``*_from_flat``
+helpers take the name to report as their first argument.
+"""
 
 from dataclasses import dataclass
 import math
-from typing import Optional, Sequence
+import re
+from typing import Any, Optional, Sequence
 
 import numpy as np
 
 from observer_ros.core.errors import ConfigError
 
 ArrayLike = Sequence[float] | np.ndarray
+
+#: Signal names python-control makes up when none are given (``x[0]``, ``u[1]``...).
+_CONTROL_DEFAULT_NAME = re.compile(r'^[xuy]\[\d+\]$')
 
 
 def _as_finite_vector(parameter: str, values: ArrayLike) -> np.ndarray:
@@ -52,9 +62,9 @@ def matrix_from_flat(parameter: str, values: ArrayLike, rows: int, cols: int) ->
     Parameters
     ----------
     parameter : str
-        Parameter name used in error messages.
-    values : sequence of float
-        The ``rows * cols`` entries, row after row.
+        Name used in error messages (the caller's argument, such as ``'gain'``).
+    values : sequence of float, shape (rows * cols,)
+        The entries, row after row.
     rows, cols : int
         Expected shape.
 
@@ -65,7 +75,19 @@ def matrix_from_flat(parameter: str, values: ArrayLike, rows: int, cols: int) ->
     Raises
     ------
     ConfigError
-        If the length differs from ``rows * cols`` or an entry is not finite.
+        Naming ``parameter``, if the length differs from ``rows * cols`` or an entry is
+        not a finite number.
+
+    Examples
+    --------
+    >>> from observer_ros.core.model import matrix_from_flat
+    >>> print(matrix_from_flat('gain', [1, 2, 3, 4, 5, 6], 2, 3))
+    [[1. 2. 3.]
+     [4. 5. 6.]]
+    >>> matrix_from_flat('gain', [1, 2, 3], 2, 1)
+    Traceback (most recent call last):
+    ...
+    observer_ros.core.errors.ConfigError: gain: expected 2x1 (2 values, row-major), got 3
 
     """
     vector = _as_finite_vector(parameter, values)
@@ -77,7 +99,36 @@ def matrix_from_flat(parameter: str, values: ArrayLike, rows: int, cols: int) ->
 
 
 def vector_from_flat(parameter: str, values: ArrayLike, size: int) -> np.ndarray:
-    """Return a finite vector of exactly ``size`` entries, or raise ConfigError naming it."""
+    """
+    Return a finite vector of exactly ``size`` entries.
+
+    Parameters
+    ----------
+    parameter : str
+        Name used in error messages.
+    values : sequence of float, shape (size,)
+    size : int
+
+    Returns
+    -------
+    numpy.ndarray, shape (size,)
+
+    Raises
+    ------
+    ConfigError
+        Naming ``parameter``, for a wrong length or a non-finite entry.
+
+    Examples
+    --------
+    >>> from observer_ros.core.model import vector_from_flat
+    >>> vector_from_flat('initial_state', [1, 0], 2).tolist()
+    [1.0, 0.0]
+    >>> vector_from_flat('initial_state', [1], 2)
+    Traceback (most recent call last):
+    ...
+    observer_ros.core.errors.ConfigError: initial_state: expected 2 values, got 1
+
+    """
     vector = _as_finite_vector(parameter, values)
     if vector.size != size:
         raise ConfigError(parameter, f'expected {size} values, got {vector.size}')
@@ -85,7 +136,32 @@ def vector_from_flat(parameter: str, values: ArrayLike, size: int) -> np.ndarray
 
 
 def square_from_flat(parameter: str, values: ArrayLike) -> np.ndarray:
-    """Infer ``n`` from ``n * n`` row-major entries and return the ``n x n`` matrix."""
+    """
+    Infer ``n`` from ``n * n`` row-major entries and return the ``n x n`` matrix.
+
+    Parameters
+    ----------
+    parameter : str
+        Name used in error messages.
+    values : sequence of float, shape (n * n,)
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, n)
+
+    Raises
+    ------
+    ConfigError
+        Naming ``parameter``, when the length is not a positive square or an entry is not
+        finite.
+
+    Examples
+    --------
+    >>> from observer_ros.core.model import square_from_flat
+    >>> square_from_flat('A', [0, 1, 0, 0]).shape
+    (2, 2)
+
+    """
     vector = _as_finite_vector(parameter, values)
     n = math.isqrt(vector.size)
     if vector.size == 0 or n * n != vector.size:
@@ -99,8 +175,34 @@ def covariance_from_flat(parameter: str, values: ArrayLike, size: int) -> np.nda
     """
     Build a symmetric positive semi-definite ``size x size`` covariance.
 
-    ``values`` holds either the ``size`` diagonal entries or all ``size * size`` entries
-    (row-major).
+    Parameters
+    ----------
+    parameter : str
+        Name used in error messages (``'process_noise'``, ``'measurement_noise'``...).
+    values : sequence of float, shape (size,) or (size * size,)
+        Either the ``size`` diagonal entries or all ``size * size`` entries (row-major).
+    size : int
+
+    Returns
+    -------
+    numpy.ndarray, shape (size, size)
+
+    Raises
+    ------
+    ConfigError
+        Naming ``parameter``: wrong length, non-finite entry, asymmetric or indefinite.
+
+    Examples
+    --------
+    >>> from observer_ros.core.model import covariance_from_flat
+    >>> print(covariance_from_flat('process_noise', [1, 2], 2))
+    [[1. 0.]
+     [0. 2.]]
+    >>> covariance_from_flat('process_noise', [1, 2, 0, 1], 2)
+    Traceback (most recent call last):
+    ...
+    observer_ros.core.errors.ConfigError: process_noise: expected a symmetric matrix
+
     """
     vector = _as_finite_vector(parameter, values)
     if vector.size == size:
@@ -126,6 +228,8 @@ def covariance_from_flat(parameter: str, values: ArrayLike, size: int) -> np.nda
 def _names(parameter: str, names: Optional[Sequence[str]], size: int, prefix: str):
     if not names:
         return tuple(f'{prefix}{i + 1}' for i in range(size))
+    if isinstance(names, str):
+        raise ConfigError(parameter, f'expected a list of {size} names, got the string {names!r}')
     names = tuple(str(name) for name in names)
     if len(names) != size:
         raise ConfigError(parameter, f'expected {size} names, got {len(names)}')
@@ -134,13 +238,45 @@ def _names(parameter: str, names: Optional[Sequence[str]], size: int, prefix: st
     return names
 
 
+def _matrix_2d(parameter: str, values: Any) -> np.ndarray:
+    try:
+        matrix = np.asarray(values, dtype=float)
+    except (TypeError, ValueError) as e:
+        raise ConfigError(parameter, f'expected a matrix of numbers, got {values!r}') from e
+    return np.atleast_2d(matrix)
+
+
 @dataclass(frozen=True)
 class StateSpaceModel:
     """
     Linear time-invariant model ``x' = A x + B u``, ``y = C x + D u``.
 
-    ``dt == 0`` means continuous time; ``dt > 0`` a discrete-time model with that period,
-    in seconds.
+    ``dt == 0`` means continuous time; ``dt > 0`` a discrete-time model
+    ``x[k+1] = A x[k] + B u[k]`` with that period, in seconds. Build one with
+    :meth:`from_matrices` (2-D arrays), :meth:`from_flat` (row-major lists, as ROS
+    parameters hold them) or :meth:`from_statespace` (a ``control.StateSpace``); the
+    constructor itself checks nothing.
+
+    Parameters
+    ----------
+    a : numpy.ndarray, shape (n, n)
+    b : numpy.ndarray, shape (n, m)
+    c : numpy.ndarray, shape (p, n)
+    d : numpy.ndarray, shape (p, m)
+    dt : float
+        0 (continuous time) or the sample period in seconds.
+    state_names, input_names, output_names : tuple of str
+        ``n``, ``m`` and ``p`` names (``x1``, ``u1``, ``y1``... by default).
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [-2, -3]], [[0], [1]], [[1, 0]])
+    >>> model.n_states, model.n_inputs, model.n_outputs, model.is_discrete
+    (2, 1, 1, False)
+    >>> model.state_names
+    ('x1', 'x2')
+
     """
 
     a: np.ndarray
@@ -183,85 +319,288 @@ class StateSpaceModel:
         state_names: Optional[Sequence[str]] = None,
         input_names: Optional[Sequence[str]] = None,
         output_names: Optional[Sequence[str]] = None,
-        prefix: str = 'model.',
     ) -> 'StateSpaceModel':
         """
         Build a model from flat row-major lists, inferring and checking every dimension.
 
-        ``n`` comes from ``A`` (``n * n`` values), ``m`` from ``B`` (``n * m`` values) and
-        ``p`` from ``C`` (``p * n`` values). ``D`` may be empty (zero).
+        Parameters
+        ----------
+        a : sequence of float, shape (n * n,)
+            ``A`` row after row; ``n`` comes from its length.
+        b : sequence of float, shape (n * m,)
+            ``B``; ``m`` comes from its length.
+        c : sequence of float, shape (p * n,)
+            ``C``; ``p`` comes from its length.
+        d : sequence of float, shape (p * m,), optional
+            ``D``; None or empty for zero.
+        dt : float
+            0 (continuous time, the default) or the sample period in seconds.
+        state_names, input_names, output_names : sequence of str, optional
+            ``n``, ``m`` and ``p`` unique names.
+
+        Returns
+        -------
+        StateSpaceModel
 
         Raises
         ------
         ConfigError
-            Naming the parameter, the expected shape and what was given.
+            Naming ``A``, ``B``, ``C``, ``D``, ``dt``, ``state_names``, ``input_names`` or
+            ``output_names``, the expected shape and what was given.
+
+        Examples
+        --------
+        >>> from observer_ros.core import StateSpaceModel
+        >>> model = StateSpaceModel.from_flat([0, 1, 0, 0], [0, 1], [1, 0], dt=0.1)
+        >>> print(model.b)
+        [[0.]
+         [1.]]
+        >>> StateSpaceModel.from_flat([0, 1, 0, 0], [0, 1, 2], [1, 0])  # doctest: +ELLIPSIS
+        Traceback (most recent call last):
+        ...
+        observer_ros.core.errors.ConfigError: B: expected 2xm (a multiple of 2 values, ...), got 3
 
         """
-        a_matrix = square_from_flat(prefix + 'A', a)
+        a_matrix = square_from_flat('A', a)
         n_states = a_matrix.shape[0]
-        b_vector = _as_finite_vector(prefix + 'B', b)
+        b_vector = _as_finite_vector('B', b)
         if b_vector.size == 0 or b_vector.size % n_states:
             raise ConfigError(
-                prefix + 'B',
+                'B',
                 f'expected {n_states}xm (a multiple of {n_states} values, row-major, '
-                f'n = {n_states} from {prefix}A), got {b_vector.size}')
+                f'n = {n_states} from A), got {b_vector.size}')
         n_inputs = b_vector.size // n_states
-        c_vector = _as_finite_vector(prefix + 'C', c)
+        c_vector = _as_finite_vector('C', c)
         if c_vector.size == 0 or c_vector.size % n_states:
             raise ConfigError(
-                prefix + 'C',
+                'C',
                 f'expected px{n_states} (a multiple of {n_states} values, row-major, '
-                f'n = {n_states} from {prefix}A), got {c_vector.size}')
+                f'n = {n_states} from A), got {c_vector.size}')
         n_outputs = c_vector.size // n_states
         if d is None or len(d) == 0:
             d_matrix = np.zeros((n_outputs, n_inputs))
         else:
-            d_matrix = matrix_from_flat(prefix + 'D', d, n_outputs, n_inputs)
-        dt = float(dt)
+            d_matrix = matrix_from_flat('D', d, n_outputs, n_inputs)
+        try:
+            dt = float(dt)
+        except (TypeError, ValueError) as e:
+            raise ConfigError('dt', f'expected a number of seconds, got {dt!r}') from e
         if not math.isfinite(dt) or dt < 0.0:
-            raise ConfigError(
-                prefix + 'dt', f'expected 0 (continuous time) or a period > 0 s, got {dt}')
+            raise ConfigError('dt', f'expected 0 (continuous time) or a period > 0 s, got {dt}')
         return cls(
             a=a_matrix,
             b=b_vector.reshape(n_states, n_inputs),
             c=c_vector.reshape(n_outputs, n_states),
             d=d_matrix,
             dt=dt,
-            state_names=_names(prefix + 'state_names', state_names, n_states, 'x'),
-            input_names=_names(prefix + 'input_names', input_names, n_inputs, 'u'),
-            output_names=_names(prefix + 'output_names', output_names, n_outputs, 'y'),
+            state_names=_names('state_names', state_names, n_states, 'x'),
+            input_names=_names('input_names', input_names, n_inputs, 'u'),
+            output_names=_names('output_names', output_names, n_outputs, 'y'),
         )
 
     @classmethod
     def from_matrices(
-        cls, a, b, c, d=None, dt: float = 0.0, **names
+        cls,
+        a: Any,
+        b: Any,
+        c: Any,
+        d: Any = None,
+        dt: float = 0.0,
+        state_names: Optional[Sequence[str]] = None,
+        input_names: Optional[Sequence[str]] = None,
+        output_names: Optional[Sequence[str]] = None,
     ) -> 'StateSpaceModel':
-        """Build a model from 2-D arrays ``(n, n)``, ``(n, m)``, ``(p, n)``, ``(p, m)``."""
-        a = np.atleast_2d(np.asarray(a, dtype=float))
+        """
+        Build a model from 2-D arrays, checking that their shapes agree.
+
+        Parameters
+        ----------
+        a : array_like, shape (n, n)
+        b : array_like, shape (n, m)
+            A flat vector of ``n`` entries is one input column.
+        c : array_like, shape (p, n)
+            A flat vector of ``n`` entries is one output row.
+        d : array_like, shape (p, m), optional
+            Zero when omitted.
+        dt : float
+            0 (continuous time, the default) or the sample period in seconds.
+        state_names, input_names, output_names : sequence of str, optional
+            As for :meth:`from_flat`.
+
+        Returns
+        -------
+        StateSpaceModel
+
+        Raises
+        ------
+        ConfigError
+            Naming ``A``, ``B``, ``C``, ``D`` (or a field, as :meth:`from_flat` does) with
+            the expected and the given shape.
+
+        Examples
+        --------
+        >>> from observer_ros.core import StateSpaceModel
+        >>> model = StateSpaceModel.from_matrices([[0, 1], [0, 0]], [0, 1], [1, 0],
+        ...                                       state_names=['position', 'velocity'])
+        >>> model.b.shape, model.c.shape, model.d.shape
+        ((2, 1), (1, 2), (1, 1))
+        >>> StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0, 1]], [1, 0])
+        Traceback (most recent call last):
+        ...
+        observer_ros.core.errors.ConfigError: B: expected a 2 x m matrix, got shape (1, 2)
+
+        """
+        a = _matrix_2d('A', a)
         if a.ndim != 2 or a.shape[0] != a.shape[1]:
-            raise ConfigError('model.A', f'expected a square matrix, got shape {a.shape}')
+            raise ConfigError('A', f'expected a square matrix, got shape {a.shape}')
         n_states = a.shape[0]
-        b = np.asarray(b, dtype=float)
+        try:
+            b = np.asarray(b, dtype=float)
+        except (TypeError, ValueError) as e:
+            raise ConfigError('B', f'expected a matrix of numbers, got {b!r}') from e
         if b.ndim == 1 and b.size == n_states:
             b = b.reshape(n_states, 1)  # one input given as a flat vector
         if b.ndim != 2 or b.shape[0] != n_states:
-            raise ConfigError('model.B', f'expected an {n_states} x m matrix, got shape {b.shape}')
-        c = np.atleast_2d(np.asarray(c, dtype=float))
+            raise ConfigError('B', f'expected a {n_states} x m matrix, got shape {b.shape}')
+        c = _matrix_2d('C', c)
         if c.ndim != 2 or c.shape[1] != n_states:
-            raise ConfigError('model.C', f'expected a p x {n_states} matrix, got shape {c.shape}')
+            raise ConfigError('C', f'expected a p x {n_states} matrix, got shape {c.shape}')
         d_flat = None
         if d is not None:
-            d = np.atleast_2d(np.asarray(d, dtype=float))
+            d = _matrix_2d('D', d)
             expected = (c.shape[0], b.shape[1])
             if d.shape != expected:
-                raise ConfigError('model.D', f'expected a {expected[0]} x {expected[1]} matrix, '
+                raise ConfigError('D', f'expected a {expected[0]} x {expected[1]} matrix, '
                                   f'got shape {d.shape}')
             d_flat = d.ravel()
-        return cls.from_flat(a.ravel(), b.ravel(), c.ravel(), d_flat, dt, **names)
+        return cls.from_flat(a.ravel(), b.ravel(), c.ravel(), d_flat, dt,
+                             state_names, input_names, output_names)
 
-    def transformed(self, transform: np.ndarray) -> 'StateSpaceModel':
-        """Return the model in coordinates ``w = T x`` (``A_w = T A T^-1`` and so on)."""
-        inverse = np.linalg.inv(transform)
+    @classmethod
+    def from_statespace(cls, sys: Any) -> 'StateSpaceModel':
+        """
+        Build a model from a python-control ``StateSpace`` system.
+
+        Parameters
+        ----------
+        sys : control.StateSpace
+            Continuous (``sys.dt`` 0, or None for an unspecified time base, taken as
+            continuous) or discrete with a period (``sys.dt > 0``). Its state, input and
+            output labels become the model's names, unless they are the ones
+            python-control makes up (``x[0]``, ``u[0]``, ``y[0]``...).
+
+        Returns
+        -------
+        StateSpaceModel
+
+        Raises
+        ------
+        ConfigError
+            Naming ``sys`` when it is not a state-space system (convert a transfer function
+            with ``control.ss`` first, choosing the realization) or is discrete with an
+            unspecified period (``dt=True``); naming ``A`` ... ``D`` as :meth:`from_flat`
+            does for empty or non-finite matrices.
+
+        Examples
+        --------
+        >>> import control
+        >>> from observer_ros.core import StateSpaceModel
+        >>> cart = control.ss([[0, 1], [0, 0]], [[0], [1]], [[1, 0]], 0, 0.01,
+        ...                   states=['position', 'velocity'], inputs=['force'])
+        >>> model = StateSpaceModel.from_statespace(cart)
+        >>> model.dt, model.state_names, model.input_names, model.output_names
+        (0.01, ('position', 'velocity'), ('force',), ('y1',))
+
+        """
+        matrices = [getattr(sys, name, None) for name in ('A', 'B', 'C', 'D')]
+        if any(matrix is None for matrix in matrices) or not hasattr(sys, 'dt'):
+            raise ConfigError(
+                'sys', f'expected a control.StateSpace system, got {type(sys).__name__}; '
+                'convert a transfer function with control.ss(sys), which chooses the states')
+        dt = sys.dt
+        if dt is None:
+            dt = 0.0
+        elif dt is True:
+            raise ConfigError(
+                'sys', 'the system is discrete with an unspecified period (dt=True); set '
+                'its period in seconds (control.ss(..., dt=0.01))')
+
+        def labels(name: str) -> Optional[list]:
+            values = list(getattr(sys, name, None) or [])
+            if not values or all(_CONTROL_DEFAULT_NAME.match(str(v)) for v in values):
+                return None
+            return values
+
+        return cls.from_matrices(*matrices, dt=dt, state_names=labels('state_labels'),
+                                 input_names=labels('input_labels'),
+                                 output_names=labels('output_labels'))
+
+    def to_statespace(self) -> Any:
+        """
+        Return the model as a python-control ``StateSpace`` system, with its names.
+
+        Returns
+        -------
+        control.StateSpace
+            ``dt`` 0 (continuous) or the period; the state, input and output labels are the
+            model's names.
+
+        Examples
+        --------
+        >>> import observer_ros.core as oc
+        >>> model = oc.StateSpaceModel.from_matrices([[-1]], [[1]], [[2]], dt=0.0,
+        ...                                          state_names=['speed'])
+        >>> sys = model.to_statespace()
+        >>> sys.dt, sys.state_labels, float(sys.dcgain())
+        (0, ['speed'], 2.0)
+        >>> back = oc.StateSpaceModel.from_statespace(sys)
+        >>> back.state_names, back.input_names, bool((back.c == model.c).all())
+        (('speed',), ('u1',), True)
+
+        """
+        import control  # about a second to import, so only when asked
+        dt = self.dt if self.is_discrete else 0
+        return control.ss(self.a, self.b, self.c, self.d, dt,
+                          states=list(self.state_names), inputs=list(self.input_names),
+                          outputs=list(self.output_names))
+
+    def transformed(self, transform: ArrayLike) -> 'StateSpaceModel':
+        """
+        Return the model in coordinates ``w = T x`` (``A_w = T A T^-1`` and so on).
+
+        Parameters
+        ----------
+        transform : array_like, shape (n, n)
+            ``T``, invertible.
+
+        Returns
+        -------
+        StateSpaceModel
+            ``T A T^-1``, ``T B``, ``C T^-1`` and the same ``D``, ``dt`` and names.
+
+        Raises
+        ------
+        ConfigError
+            Naming ``transform`` when it is not ``n x n`` or is singular.
+
+        Examples
+        --------
+        >>> import observer_ros.core as oc
+        >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [-2, -3]], [[0], [1]], [[1, 0]])
+        >>> swapped = model.transformed([[0, 1], [1, 0]])
+        >>> print(swapped.a)
+        [[-3. -2.]
+         [ 1.  0.]]
+
+        """
+        transform = _matrix_2d('transform', transform)
+        if transform.shape != (self.n_states, self.n_states):
+            raise ConfigError('transform', f'expected a {self.n_states} x {self.n_states} '
+                              f'matrix, got shape {transform.shape}')
+        try:
+            inverse = np.linalg.inv(transform)
+        except np.linalg.LinAlgError as e:
+            raise ConfigError('transform', 'expected an invertible matrix') from e
         return StateSpaceModel(
             a=transform @ self.a @ inverse, b=transform @ self.b, c=self.c @ inverse,
             d=self.d, dt=self.dt, state_names=self.state_names,

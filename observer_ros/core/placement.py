@@ -90,6 +90,13 @@ class PlacementResult:
         Relative error of the achieved poles (distinct poles) or of the characteristic
         polynomial coefficients (repeated poles).
 
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> result = oc.place([[0, 1], [0, 0]], [[0], [1]], [-2, -2.5])
+    >>> result.gain.round(6).tolist(), result.method, bool(result.residual < 1e-12)
+    ([[5.0, 4.5]], 'place', True)
+
     """
 
     gain: np.ndarray
@@ -100,7 +107,24 @@ class PlacementResult:
 
 
 def sort_poles(poles) -> np.ndarray:
-    """Sort by real part, then imaginary part, for side-by-side comparison."""
+    """
+    Sort by real part, then imaginary part, for side-by-side comparison.
+
+    Parameters
+    ----------
+    poles : array_like of complex, shape (k,)
+
+    Returns
+    -------
+    numpy.ndarray of complex, shape (k,)
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> oc.sort_poles([-1, -3 + 1j, -3 - 1j]).tolist()
+    [(-3-1j), (-3+1j), (-1+0j)]
+
+    """
     poles = np.asarray(poles, dtype=complex)
     return poles[np.lexsort((poles.imag, poles.real))]
 
@@ -150,11 +174,25 @@ def placement_residual(closed_loop: np.ndarray, poles: np.ndarray) -> tuple[floa
     ``max(1, |centre|)^j``: the symmetric functions of a cluster are as accurate as the
     matrix, its individual eigenvalues are not.
 
+    Parameters
+    ----------
+    closed_loop : array_like, shape (n, n)
+        ``A - B K`` or ``A - L C``.
+    poles : array_like of complex, shape (n,)
+        The requested poles.
+
     Returns
     -------
     residual : float
-    achieved : numpy.ndarray of complex
+    achieved : numpy.ndarray of complex, shape (n,)
         Eigenvalues, sorted.
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> residual, achieved = oc.placement_residual([[-2, 1], [0, -2]], [-2, -2])
+    >>> residual, achieved.tolist()
+    (0.0, [(-2+0j), (-2+0j)])
 
     """
     achieved = sort_poles(np.linalg.eigvals(closed_loop))
@@ -228,6 +266,12 @@ def preload_methods() -> None:
     The core imports python-control only when Varga's method is first used, which takes
     about a second; nodes call this at start-up so that no design on a callback path pays
     for an import.
+
+    Examples
+    --------
+    >>> from observer_ros.core.placement import preload_methods
+    >>> preload_methods()
+
     """
     import control  # noqa: F401
 
@@ -279,8 +323,9 @@ def _validate_problem(a, b, poles, method):
         raise ConfigError(
             'poles', f'expected {a.shape[0]} poles (one per state), got {poles.size}')
     check_conjugate_pairs(poles)
-    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
-        raise ConfigError('A', 'matrices must be finite')
+    for name, matrix in (('A', a), ('B', b)):
+        if not np.all(np.isfinite(matrix)):
+            raise ConfigError(name, 'expected finite entries')
     return a, b, poles
 
 
@@ -307,12 +352,29 @@ def place(a, b, poles, method: str = 'auto', rtol: float = DEFAULT_RTOL) -> Plac
     Raises
     ------
     DesignError
-        When no method reaches ``rtol``: the message lists every attempt and why it
-        failed. An uncontrollable pair is reported with its modes.
+        When no method reaches ``rtol`` (naming ``poles``): the message lists every
+        attempt and why it failed. An uncontrollable pair is reported with its modes
+        (unnamed).
     ConfigError
-        For wrong shapes, unpaired complex poles or an unknown method.
+        Naming ``A`` or ``B`` (shapes, non-finite entries), ``poles`` (count, non-finite,
+        unpaired), ``method`` (unknown, or single-input only) or ``rtol``.
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> a, b = [[0, 1], [0, 0]], [[0], [1]]
+    >>> oc.place(a, b, [-2, -2.5]).gain.round(6).tolist()
+    [[5.0, 4.5]]
+    >>> oc.place(a, b, [-2, -2], method='acker').gain.round(6).tolist()
+    [[4.0, 4.0]]
+    >>> oc.place(a, b, [-2, -2, -3])
+    Traceback (most recent call last):
+    ...
+    observer_ros.core.errors.ConfigError: poles: expected 2 poles (one per state), got 3
 
     """
+    if not (np.isfinite(rtol) and rtol > 0.0):
+        raise ConfigError('rtol', f'expected a relative tolerance > 0, got {rtol}')
     a, b, poles = _validate_problem(a, b, poles, method)
     n_states, n_inputs = b.shape
     if method in _SINGLE_INPUT_ONLY and n_inputs != 1:
@@ -346,7 +408,7 @@ def place(a, b, poles, method: str = 'auto', rtol: float = DEFAULT_RTOL) -> Plac
             f'(PBH test), so the poles {format_modes(poles)} cannot be placed')
     raise DesignError(
         f'no placement method reached the poles {format_modes(poles)} to {rtol:.1g}: '
-        + '; '.join(failures))
+        + '; '.join(failures), parameter='poles')
 
 
 def _uncontrollable_modes(a: np.ndarray, b: np.ndarray) -> tuple:
@@ -375,16 +437,30 @@ def place_observer(a, c, poles, method: str = 'auto',
     Raises
     ------
     DesignError
-        When the pair is unobservable (the message names the lost modes) or no method
-        reaches the poles.
+        When the pair is unobservable (the message names the lost modes, unnamed) or no
+        method reaches the poles (naming ``poles``).
+    ConfigError
+        Naming ``A``, ``C``, ``poles``, ``method`` or ``rtol``, as :func:`place` does.
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> result = oc.place_observer([[0, 1], [0, 0]], [[1, 0]], [-8, -9])
+    >>> result.gain.round(6).tolist()
+    [[17.0], [72.0]]
 
     """
     a = np.asarray(a, dtype=float)
     c = np.atleast_2d(np.asarray(c, dtype=float))
+    if a.ndim == 2 and (c.ndim != 2 or c.shape[1] != a.shape[0]):
+        raise ConfigError('C', f'expected {a.shape[0]} columns, got shape {c.shape}')
+    if not np.all(np.isfinite(c)):
+        raise ConfigError('C', 'expected finite entries')
     try:
         dual = place(a.T, c.T, poles, method, rtol)
     except DesignError as e:
         raise DesignError(
-            str(e).replace('is not controllable', 'is not observable')
-            .replace('cannot be moved', 'cannot be seen from the outputs')) from e
+            e.reason.replace('is not controllable', 'is not observable')
+            .replace('cannot be moved', 'cannot be seen from the outputs'),
+            parameter=e.parameter) from e
     return replace(dual, gain=dual.gain.T.copy())

@@ -32,25 +32,53 @@ def _square_root(covariance: np.ndarray) -> np.ndarray:
     return vectors * np.sqrt(np.clip(values, 0.0, None))
 
 
-def input_limits_from_flat(values, n_inputs: int) -> Optional[np.ndarray]:
+def input_limits_from_flat(values, n_inputs: int,
+                           parameter: str = 'input_limits') -> Optional[np.ndarray]:
     """
     Parse input limits into an ``(m, 2)`` array, or None.
 
-    Accepts empty (no limits), ``[min, max]`` for all inputs, or
-    ``[min_1, max_1, ..., min_m, max_m]``.
+    Parameters
+    ----------
+    values : sequence of float, shape (0,), (2,) or (2 m,)
+        Empty (no limits), ``[min, max]`` for all inputs, or
+        ``[min_1, max_1, ..., min_m, max_m]``.
+    n_inputs : int
+        ``m``.
+    parameter : str
+        Name used in error messages.
+
+    Returns
+    -------
+    numpy.ndarray, shape (m, 2), or None
+
+    Raises
+    ------
+    ConfigError
+        Naming ``parameter``: wrong length, non-finite entry, or ``min >= max``.
+
+    Examples
+    --------
+    >>> from observer_ros.core.simulation import input_limits_from_flat
+    >>> input_limits_from_flat([-1, 1], 2).tolist()
+    [[-1.0, 1.0], [-1.0, 1.0]]
+    >>> input_limits_from_flat([1, -1], 1)
+    Traceback (most recent call last):
+    ...
+    observer_ros.core.errors.ConfigError: input_limits: expected min < max, got [1.0, -1.0]
+
     """
     if values is None or len(values) == 0:
         return None
-    vector = vector_from_flat('input_limits', values, len(values))
+    vector = vector_from_flat(parameter, values, len(values))
     if vector.size == 2:
         limits = np.tile(vector, (n_inputs, 1))
     elif vector.size == 2 * n_inputs:
         limits = vector.reshape(n_inputs, 2)
     else:
-        raise ConfigError('input_limits', f'expected 2 values (min, max) or {2 * n_inputs} '
+        raise ConfigError(parameter, f'expected 2 values (min, max) or {2 * n_inputs} '
                           f'(min, max per input), got {vector.size}')
     if np.any(limits[:, 0] >= limits[:, 1]):
-        raise ConfigError('input_limits', f'expected min < max, got {vector.tolist()}')
+        raise ConfigError(parameter, f'expected min < max, got {vector.tolist()}')
     return limits
 
 
@@ -63,15 +91,47 @@ class PlantSimulator:
     model : StateSpaceModel
         Continuous (``dt == 0``: any interval) or discrete (one step per call).
     initial_state : array_like, shape (n,), optional
-    process_noise : array_like, optional
+        Zero by default.
+    process_noise : array_like, shape (n,) or (n * n,), optional
         Continuous model: intensity ``Q`` (discretized with Van Loan's method for each
-        interval). Discrete model: covariance of ``w[k]``. ``n`` or ``n * n`` values.
-    measurement_noise : array_like, optional
-        Covariance of ``v`` at each sample, ``p`` or ``p * p`` values.
+        interval). Discrete model: covariance of ``w[k]``.
+    measurement_noise : array_like, shape (p,) or (p * p,), optional
+        Covariance of ``v`` at each sample.
     seed : int, optional
         Seed of the noise generator (``numpy.random.default_rng``).
-    input_limits : numpy.ndarray, shape (m, 2), optional
-        Saturation applied to every input.
+    input_limits : array_like, shape (m, 2) or flat (2,) or (2 m,), optional
+        Saturation ``[min, max]`` applied to every input (see
+        :func:`input_limits_from_flat`).
+
+    Attributes
+    ----------
+    x : numpy.ndarray, shape (n,)
+        The current state.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``initial_state``, ``process_noise``, ``measurement_noise`` or
+        ``input_limits`` for a wrong size or value.
+
+    Examples
+    --------
+    A double integrator pushed by a unit force for one second, 100 steps of 10 ms:
+
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> plant = oc.PlantSimulator(model, initial_state=[0.0, 0.0])
+    >>> for _ in range(100):
+    ...     x = plant.step([1.0], 0.01)
+    >>> x.round(9).tolist(), plant.measure().round(9).tolist()
+    ([0.5, 1.0], [0.5])
+
+    With seeded noise the run is reproducible:
+
+    >>> noisy = oc.PlantSimulator(model, measurement_noise=[0.01], seed=3)
+    >>> bool(noisy.measure()[0] == oc.PlantSimulator(
+    ...     model, measurement_noise=[0.01], seed=3).measure()[0])
+    True
 
     """
 
@@ -80,15 +140,15 @@ class PlantSimulator:
                  input_limits: Optional[np.ndarray] = None) -> None:
         self.model = model
         self.x = (np.zeros(model.n_states) if initial_state is None
-                  else vector_from_flat('plant.initial_state', initial_state, model.n_states))
+                  else vector_from_flat('initial_state', initial_state, model.n_states))
         self.q = (None if process_noise is None or len(process_noise) == 0
-                  else covariance_from_flat('plant.process_noise', process_noise,
-                                            model.n_states))
+                  else covariance_from_flat('process_noise', process_noise, model.n_states))
         self.r_root = (None if measurement_noise is None or len(measurement_noise) == 0
                        else _square_root(covariance_from_flat(
-                           'plant.measurement_noise', measurement_noise, model.n_outputs)))
+                           'measurement_noise', measurement_noise, model.n_outputs)))
         self.rng = np.random.default_rng(seed)
-        self.input_limits = input_limits
+        self.input_limits = (None if input_limits is None else
+                             input_limits_from_flat(np.ravel(input_limits), model.n_inputs))
         self._cache: OrderedDict = OrderedDict()
 
     def _sampled(self, dt: float):
@@ -107,14 +167,55 @@ class PlantSimulator:
         return entry
 
     def saturate(self, u) -> np.ndarray:
-        """Clip ``u`` to the input limits (if any)."""
+        """
+        Clip ``u`` to the input limits (if any).
+
+        Parameters
+        ----------
+        u : array_like, shape (m,)
+
+        Returns
+        -------
+        numpy.ndarray, shape (m,)
+
+        Examples
+        --------
+        >>> import observer_ros.core as oc
+        >>> model = oc.StateSpaceModel.from_matrices([[-1]], [[1]], [[1]])
+        >>> oc.PlantSimulator(model, input_limits=[-1, 1]).saturate([3.0]).tolist()
+        [1.0]
+
+        """
         u = np.asarray(u, dtype=float).reshape(self.model.n_inputs)
         if self.input_limits is None:
             return u
         return np.clip(u, self.input_limits[:, 0], self.input_limits[:, 1])
 
     def step(self, u, dt: float) -> np.ndarray:
-        """Advance ``dt`` seconds (one period for a discrete model) with ``u`` held."""
+        """
+        Advance ``dt`` seconds (one period for a discrete model) with ``u`` held.
+
+        Parameters
+        ----------
+        u : array_like, shape (m,)
+            Saturated to the input limits, then held over the interval.
+        dt : float
+            Seconds (ignored for a discrete model, which advances one period).
+
+        Returns
+        -------
+        numpy.ndarray, shape (n,)
+            The new state (the simulator's own array).
+
+        Examples
+        --------
+        >>> import observer_ros.core as oc
+        >>> model = oc.StateSpaceModel.from_matrices([[0.5]], [[1]], [[1]], dt=0.1)
+        >>> plant = oc.PlantSimulator(model, initial_state=[2.0])
+        >>> plant.step([1.0], 0.1).tolist()
+        [2.0]
+
+        """
         ad, bd, q_root = self._sampled(float(dt))
         self.x = ad @ self.x + bd @ self.saturate(u)
         if q_root is not None:
@@ -122,7 +223,23 @@ class PlantSimulator:
         return self.x
 
     def measure(self) -> np.ndarray:
-        """Output at the current state, with measurement noise if configured."""
+        """
+        Output at the current state, with measurement noise if configured.
+
+        Returns
+        -------
+        numpy.ndarray, shape (p,)
+            ``C x + v``: the feedthrough ``D u`` is not added (the runtime estimators
+            need ``D = 0``).
+
+        Examples
+        --------
+        >>> import observer_ros.core as oc
+        >>> model = oc.StateSpaceModel.from_matrices([[-1]], [[1]], [[3]])
+        >>> oc.PlantSimulator(model, initial_state=[2.0]).measure().tolist()
+        [6.0]
+
+        """
         y = self.model.c @ self.x
         if self.r_root is not None:
             y = y + self.r_root @ self.rng.standard_normal(self.model.n_outputs)

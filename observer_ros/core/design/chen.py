@@ -49,8 +49,30 @@ class ChenDesign(ObserverDesign):
     """
     Chen observer design: :class:`ObserverDesign` plus ``F``, ``T`` and ``[C; T]^-1``.
 
-    ``gain`` holds ``L`` ``(n-p, p)``; ``f`` ``(n-p, n-p)``, ``t`` ``(n-p, n)``,
-    ``inverse`` ``(n, n)`` is ``[C; T]^-1`` and ``condition`` its condition number.
+    Attributes
+    ----------
+    gain : numpy.ndarray, shape (n - p, p)
+        ``L``.
+    f : numpy.ndarray, shape (n - p, n - p)
+        ``F``, real, with the requested poles as eigenvalues.
+    t : numpy.ndarray, shape (n - p, n)
+        ``T``, the solution of ``T A - F T = L C``.
+    inverse : numpy.ndarray, shape (n, n)
+        ``[C; T]^-1``.
+    condition : float
+        Condition number of ``[C; T]``.
+
+    The other attributes are those of :class:`ObserverDesign`.
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices(
+    ...     [[0, 1, 0], [0, 0, 1], [-6, -11, -6]], [[0], [0], [1]], [[1, 0, 0]])
+    >>> design = oc.design_chen(model, poles=[-4, -5])
+    >>> design.f.shape, design.t.shape, design.inverse.shape, bool(design.condition < 1e10)
+    ((2, 2), (2, 3), (3, 3), True)
+
     """
 
     f: np.ndarray
@@ -66,6 +88,24 @@ def real_block_matrix(poles) -> np.ndarray:
     Real poles give ``[lambda]``, conjugate pairs ``sigma +- j omega`` give
     ``[[sigma, omega], [-omega, sigma]]``, and repeated poles are chained as (real) Jordan
     blocks, so that a single column ``L`` can still make ``(F, L)`` controllable.
+
+    Parameters
+    ----------
+    poles : array_like of complex, shape (q,)
+        Conjugate pairs complete.
+
+    Returns
+    -------
+    numpy.ndarray, shape (q, q)
+
+    Examples
+    --------
+    >>> from observer_ros.core.design.chen import real_block_matrix
+    >>> print(real_block_matrix([-1 + 2j, -1 - 2j, -3]))
+    [[-3.  0.  0.]
+     [ 0. -1.  2.]
+     [ 0. -2. -1.]]
+
     """
     poles = sort_poles(clean_poles(poles))
     blocks = []
@@ -105,7 +145,8 @@ def default_chen_gain(f: np.ndarray, n_outputs: int, seed: int = DEFAULT_SEED) -
         gain = rng.uniform(0.1, 1.0, size=(f.shape[0], n_outputs))
         if not pbh_lost_modes(f.T, gain.T):
             return gain
-    raise DesignError('could not draw an L making (F, L) controllable; give observer.gain')
+    raise DesignError('could not draw an L making (F, L) controllable; give a gain or '
+                      'another seed', parameter='seed')
 
 
 def solve_chen(a: np.ndarray, c: np.ndarray, f: np.ndarray, gain: np.ndarray):
@@ -115,8 +156,9 @@ def solve_chen(a: np.ndarray, c: np.ndarray, f: np.ndarray, gain: np.ndarray):
     Raises
     ------
     DesignError
-        Shared eigenvalues between ``F`` and ``A``, (F, L) uncontrollable, or ``[C; T]``
-        singular or ill-conditioned.
+        Naming ``poles`` (the eigenvalues of ``F``) when ``F`` and ``A`` share an eigenvalue,
+        ``gain`` when ``(F, L)`` is uncontrollable; unnamed when ``[C; T]`` is singular or
+        ill-conditioned.
 
     """
     eig_a = np.linalg.eigvals(a)
@@ -125,12 +167,12 @@ def solve_chen(a: np.ndarray, c: np.ndarray, f: np.ndarray, gain: np.ndarray):
     if gaps.size and gaps.min() < MIN_SEPARATION:
         shared = eig_f[np.argwhere(gaps < MIN_SEPARATION)[:, 0]]
         raise DesignError(
-            f'observer.poles: Chen observer poles {format_modes(shared)} coincide with '
-            f'eigenvalues of A; the Sylvester equation T A - F T = L C has no unique solution')
+            f'Chen observer poles {format_modes(shared)} coincide with eigenvalues of A; '
+            f'the Sylvester equation T A - F T = L C has no unique solution', parameter='poles')
     if pbh_lost_modes(f.T, gain.T):
         raise DesignError(
-            'observer.gain: (F, L) is not controllable, so [C; T] would be singular; '
-            'choose another L')
+            '(F, L) is not controllable, so [C; T] would be singular; choose another L',
+            parameter='gain')
     try:
         t = scipy.linalg.solve_sylvester(-f, a, gain @ c)
     except (np.linalg.LinAlgError, ValueError) as e:
@@ -166,6 +208,28 @@ def design_chen(model: StateSpaceModel, poles, gain=None,
     -------
     ChenDesign
 
+    Raises
+    ------
+    ConfigError
+        ``poles`` of the wrong count, ``gain`` of the wrong size.
+    DesignError
+        Naming ``C`` (not of full row rank ``p < n``), ``poles`` (unstable, or shared with
+        ``A``), ``gain`` (``(F, L)`` uncontrollable) or ``seed`` (no controllable random
+        ``L``); unnamed for an unobservable pair or an ill-conditioned ``[C; T]``.
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices(
+    ...     [[0, 1, 0], [0, 0, 1], [-6, -11, -6]], [[0], [0], [1]], [[1, 0, 0]])
+    >>> design = oc.design_chen(model, poles=[-4, -5])
+    >>> design.order, design.gain.shape, design.achieved_poles.round(6).tolist()
+    (2, (2, 1), [(-5+0j), (-4+0j)])
+    >>> oc.design_chen(model, poles=[-4])  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    observer_ros.core.errors.ConfigError: poles: a Chen observer ... expected 2 poles, got 1
+
     References
     ----------
     C.-T. Chen, Linear System Theory and Design, 3rd ed., section 8.4.
@@ -175,21 +239,21 @@ def design_chen(model: StateSpaceModel, poles, gain=None,
     n_reduced = n_states - n_outputs
     if np.linalg.matrix_rank(model.c) < n_outputs or n_reduced < 1:
         raise DesignError(
-            f'model.C: a Chen observer needs C of full row rank p < n (p = {n_outputs}, '
-            f'n = {n_states}, rank {np.linalg.matrix_rank(model.c)})')
+            f'a Chen observer needs C of full row rank p < n (p = {n_outputs}, '
+            f'n = {n_states}, rank {np.linalg.matrix_rank(model.c)})', parameter='C')
     poles = clean_poles(np.atleast_1d(np.asarray(poles, dtype=complex)))
     if poles.size != n_reduced:
         raise ConfigError(
-            'observer.poles', f'a Chen observer of this model has order n - p = {n_reduced}: '
+            'poles', f'a Chen observer of this model has order n - p = {n_reduced}: '
             f'expected {n_reduced} poles, got {poles.size}')
-    require_stable_poles(poles, model.is_discrete, 'observer.poles')
+    require_stable_poles(poles, model.is_discrete, 'poles')
     require_observable(model.a, model.c)
     f = real_block_matrix(poles)
     if gain is None:
         gain = default_chen_gain(f, n_outputs, seed)
         method = f'sylvester (random L, seed {seed})'
     else:
-        gain = matrix_from_flat('observer.gain', np.ravel(gain), n_reduced, n_outputs)
+        gain = matrix_from_flat('gain', np.ravel(gain), n_reduced, n_outputs)
         method = 'sylvester (given L)'
     t, inverse, condition, residual = solve_chen(model.a, model.c, f, gain)
     pole_residual, achieved = placement_residual(f, poles)

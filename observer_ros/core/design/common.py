@@ -33,6 +33,24 @@ class ObserverRealization:
     ``xi' = A xi + B_y y + B_u u`` (or ``xi[k+1] = ...`` for a discrete model) and
     ``x_hat = C xi + D_y y + D_u u``. Every observer type maps to this form, which the
     controller transfer function and the closed-loop analysis use.
+
+    Attributes
+    ----------
+    a : numpy.ndarray, shape (q, q)
+        ``q`` is the observer's order (``n`` full order, ``n - p`` reduced order).
+    b_y, b_u : numpy.ndarray, shapes (q, p) and (q, m)
+    c : numpy.ndarray, shape (n, q)
+    d_y, d_u : numpy.ndarray, shapes (n, p) and (n, m)
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> realization = oc.design_full_order(model, poles=[-8, -9]).realization
+    >>> print(realization.a.round(6))
+    [[-17.   1.]
+     [-72.   0.]]
+
     """
 
     a: np.ndarray
@@ -67,6 +85,14 @@ class ObserverDesign:
     realization : ObserverRealization
         The observer as a system from ``(y, u)`` to ``x_hat``, in the model's coordinates.
 
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> design = oc.design_full_order(model, poles=[-8, -9])
+    >>> design.kind, design.order, design.achieved_poles.round(6).tolist()
+    ('full_order', 2, [(-9+0j), (-8+0j)])
+
     """
 
     kind: str
@@ -84,22 +110,61 @@ class ObserverDesign:
         return self.realization.a.shape[0]
 
 
-def check_given_gain_stable(error_matrix: np.ndarray, discrete: bool, parameter: str):
-    """Return the sorted eigenvalues of the error dynamics, or raise if they are unstable."""
+def check_given_gain_stable(error_matrix: np.ndarray, discrete: bool,
+                            parameter: str = 'gain') -> np.ndarray:
+    """
+    Return the sorted eigenvalues of the error dynamics, or raise if they are unstable.
+
+    Parameters
+    ----------
+    error_matrix : numpy.ndarray, shape (q, q)
+        ``A - L C`` (or its reduced-order counterpart) for the given gain.
+    discrete : bool
+        Schur (True) or Hurwitz (False) stability.
+    parameter : str
+        The argument the gain came in, named by the error.
+
+    Returns
+    -------
+    numpy.ndarray of complex, shape (q,)
+
+    Raises
+    ------
+    DesignError
+        With ``parameter`` set, when an eigenvalue is not stable.
+
+    """
     achieved = sort_poles(np.linalg.eigvals(error_matrix))
     if not is_stable(achieved, discrete):
         where = 'outside the unit circle' if discrete else 'in the closed right half-plane'
         raise DesignError(
-            f'{parameter}: the given gain makes the observer error unstable: poles '
-            f'{format_modes(achieved)} (some {where}); the estimate would diverge')
+            f'the given gain makes the observer error unstable: poles '
+            f'{format_modes(achieved)} (some {where}); the estimate would diverge',
+            parameter=parameter)
     return achieved
 
 
-def require_stable_poles(poles: np.ndarray, discrete: bool, parameter: str) -> None:
-    """Refuse requested observer poles that would not make the error converge."""
+def require_stable_poles(poles: np.ndarray, discrete: bool, parameter: str = 'poles') -> None:
+    """
+    Refuse requested observer poles that would not make the error converge.
+
+    Parameters
+    ----------
+    poles : numpy.ndarray of complex
+    discrete : bool
+        z-plane (True) or s-plane (False) poles.
+    parameter : str
+        The argument the poles came in, named by the error.
+
+    Raises
+    ------
+    DesignError
+        With ``parameter`` set, when a pole is not stable.
+
+    """
     if not is_stable(poles, discrete):
         plane = 'inside the unit circle (z-plane, discrete model)' if discrete else \
             'with negative real parts (s-plane, continuous model)'
         raise DesignError(
-            f'{parameter}: requested poles {format_modes(poles)} are not stable; expected '
-            f'poles {plane}')
+            f'requested poles {format_modes(poles)} are not stable; expected poles {plane}',
+            parameter=parameter)

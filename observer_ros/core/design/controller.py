@@ -38,7 +38,27 @@ COEFFICIENT_RTOL = 1e-10
 
 
 class UnstableControllerWarning(UserWarning):
-    """The observer-controller is stable in closed loop but unstable on its own."""
+    """
+    The observer-controller is stable in closed loop but unstable on its own.
+
+    Examples
+    --------
+    The seed plant's reduced-order observer-controller has a pole at ``s = 1.6``:
+
+    >>> import warnings
+    >>> import numpy as np
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices(
+    ...     [[0, 1, 0], [0, 0, 1], [0, -24, -10]], [[0], [10], [-80]], [[1, 0, 0]])
+    >>> observer = oc.design_reduced_order(model, poles=[-10, -10])
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter('always')
+    ...     tf = oc.controller_transfer_function(model, observer.realization,
+    ...                                          np.array([[1.25, 1.25, 0.19375]]))
+    >>> caught[0].category.__name__, tf.format_polynomials()
+    ('UnstableControllerWarning', '(9.1 s^2 + 73.5 s + 125) / (s^2 + 17 s - 30)')
+
+    """
 
 
 @dataclass(frozen=True)
@@ -49,6 +69,27 @@ class ControllerTransferFunction:
     ``num`` and ``den`` list coefficients from the highest power down; ``den`` is monic.
     ``zeros``, ``poles`` and ``gain`` give the zero-pole-gain form
     ``gain * prod(s - zeros) / prod(s - poles)``.
+
+    Attributes
+    ----------
+    num, den : numpy.ndarray, shapes (k + 1,) and (q + 1,)
+        Polynomial coefficients, highest power first; ``q`` is the controller's order.
+    zeros, poles : numpy.ndarray of complex, shapes (k,) and (q,)
+    gain : float
+        Leading numerator coefficient.
+    discrete : bool
+        Whether ``s`` stands for ``z`` (a discrete model).
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> observer = oc.design_full_order(model, poles=[-8, -9])
+    >>> k = oc.design_feedback(model, poles=[-2, -2.5]).gain
+    >>> tf = oc.controller_transfer_function(model, observer.realization, k)
+    >>> tf.format_polynomials(), tf.format_zpk(), tf.unstable
+    ('(409 s + 360) / (s^2 + 21.5 s + 153.5)', '409 (s+0.8802) / (s^2+21.5s+153.5)', False)
+
     """
 
     num: np.ndarray
@@ -84,7 +125,16 @@ class ControllerTransferFunction:
 
 
 def polynomial_text(coefficients, variable: str = 's') -> str:
-    """Format coefficients (highest power first) as ``9.1 s^2 + 73.5 s + 125``."""
+    """
+    Format coefficients (highest power first) as ``9.1 s^2 + 73.5 s + 125``.
+
+    Examples
+    --------
+    >>> from observer_ros.core.design.controller import polynomial_text
+    >>> polynomial_text([1, 17, -30], 'z')
+    'z^2 + 17 z - 30'
+
+    """
     coefficients = np.asarray(coefficients, dtype=float)
     degree = coefficients.size - 1
     terms = []
@@ -109,8 +159,34 @@ def controller_state_space(realization: ObserverRealization, feedback_gain: np.n
     """
     Close the observer with ``u = -K x_hat``: a system from ``y`` to ``u``.
 
-    Returns ``(A_c, B_c, C_c, D_c)`` with ``xi' = A_c xi + B_c y`` and
-    ``u = C_c xi + D_c y``; ``G_oc = -(C_c (sI - A_c)^-1 B_c + D_c)``.
+    Parameters
+    ----------
+    realization : ObserverRealization
+        The observer, of order ``q``.
+    feedback_gain : numpy.ndarray, shape (m, n)
+        ``K``.
+
+    Returns
+    -------
+    a_c, b_c, c_c, d_c : numpy.ndarray, shapes (q, q), (q, p), (m, q), (m, p)
+        ``xi' = A_c xi + B_c y`` and ``u = C_c xi + D_c y``;
+        ``G_oc = -(C_c (sI - A_c)^-1 B_c + D_c)``.
+
+    Raises
+    ------
+    DesignError
+        Naming ``feedback_gain`` when ``I + K D_u`` is singular (an algebraic loop).
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> observer = oc.design_full_order(model, poles=[-8, -9])
+    >>> k = oc.design_feedback(model, poles=[-2, -2.5]).gain
+    >>> a_c, b_c, c_c, d_c = oc.controller_state_space(observer.realization, k)
+    >>> a_c.round(6).tolist(), c_c.round(6).tolist()
+    ([[-17.0, 1.0], [-77.0, -4.5]], [[-5.0, -4.5]])
+
     """
     k = feedback_gain
     n_inputs = k.shape[0]
@@ -118,7 +194,8 @@ def controller_state_space(realization: ObserverRealization, feedback_gain: np.n
     try:
         closing = -np.linalg.solve(loop, k)
     except np.linalg.LinAlgError as e:
-        raise DesignError('the observer-controller has an algebraic loop with no solution') from e
+        raise DesignError('the observer-controller has an algebraic loop with no solution',
+                          parameter='feedback_gain') from e
     c_c = closing @ realization.c
     d_c = closing @ realization.d_y
     a_c = realization.a + realization.b_u @ c_c
@@ -175,16 +252,38 @@ def controller_transfer_function(model: StateSpaceModel, realization: ObserverRe
     the seed example ``(9.1 s^2 + 73.5 s + 125) / (s^2 + 17 s - 30)``, but the loop must
     then never be opened).
 
+    Parameters
+    ----------
+    model : StateSpaceModel
+        Single input, single output.
+    realization : ObserverRealization
+        The observer (``design.realization`` of any observer design).
+    feedback_gain : numpy.ndarray, shape (1, n)
+        ``K``.
+
+    Returns
+    -------
+    ControllerTransferFunction
+
     Raises
     ------
     DesignError
-        When the plant is not single-input single-output.
+        Naming ``model`` when the plant is not single-input single-output.
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> observer = oc.design_full_order(model, poles=[-8, -9])
+    >>> k = oc.design_feedback(model, poles=[-2, -2.5]).gain
+    >>> oc.controller_transfer_function(model, observer.realization, k).format_polynomials()
+    '(409 s + 360) / (s^2 + 21.5 s + 153.5)'
 
     """
     if model.n_inputs != 1 or model.n_outputs != 1:
         raise DesignError(
             f'G_oc is computed for single-input single-output plants; this one has '
-            f'{model.n_inputs} inputs and {model.n_outputs} outputs')
+            f'{model.n_inputs} inputs and {model.n_outputs} outputs', parameter='model')
     a_c, b_c, c_c, d_c = controller_state_space(realization, feedback_gain)
     den = np.poly(a_c) if a_c.size else np.ones(1)
     num = _numerator(a_c, b_c, -c_c, -d_c, den)
@@ -205,10 +304,35 @@ def solve_diophantine(a_poly, b_poly, closed_loop_poly):
     ``deg R = deg A_cl - deg A`` and ``deg S = deg A - 1``; the Sylvester matrix is square
     and the solution unique when ``A`` and ``B`` are coprime.
 
+    Parameters
+    ----------
+    a_poly : array_like, shape (n + 1,)
+        Plant denominator ``A``.
+    b_poly : array_like, shape (n + 1,) or shorter
+        Plant numerator ``B``.
+    closed_loop_poly : array_like, shape (2 n,) or longer
+        Desired closed-loop polynomial ``A_cl``.
+
+    Returns
+    -------
+    r_poly : numpy.ndarray, shape (deg A_cl - n + 1,)
+    s_poly : numpy.ndarray, shape (n,)
+
     Raises
     ------
     DesignError
-        ``A`` and ``B`` share a root (the plant has a cancellation), or degrees don't fit.
+        Naming ``closed_loop_poly`` when the degrees don't fit; unnamed when ``A`` and
+        ``B`` share a root (the plant has a cancellation).
+
+    Examples
+    --------
+    A double integrator ``1 / s^2`` with the closed loop ``(s + 2)(s + 2.5)(s + 8)(s + 9)``:
+
+    >>> import numpy as np
+    >>> import observer_ros.core as oc
+    >>> r_poly, s_poly = oc.solve_diophantine([1, 0, 0], [1], np.poly([-2, -2.5, -8, -9]))
+    >>> r_poly.round(6).tolist(), s_poly.round(6).tolist()
+    ([1.0, 21.5, 153.5], [409.0, 360.0])
 
     """
     a_poly = np.trim_zeros(np.asarray(a_poly, dtype=float), 'f')
@@ -220,7 +344,7 @@ def solve_diophantine(a_poly, b_poly, closed_loop_poly):
     if deg_r < deg_s or b_poly.size - 1 > n:
         raise DesignError(
             f'the closed-loop polynomial has degree {acl.size - 1}; a proper controller for a '
-            f'plant of degree {n} needs at least {2 * n - 1}')
+            f'plant of degree {n} needs at least {2 * n - 1}', parameter='closed_loop_poly')
     unknowns = deg_r + 1 + deg_s + 1
     matrix = np.zeros((acl.size, unknowns))
     for j in range(deg_r + 1):  # column j multiplies s^(deg_r - j) in R
@@ -245,9 +369,37 @@ def diophantine_controller(model: StateSpaceModel, controller_poles,
 
     The cross-check of the state-space observer-controller: for a single-output plant the
     controller of a given order is unique, whatever observer gain produced it.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        Single input, single output, of order ``n``.
+    controller_poles : array_like of complex, shape (n,)
+        Poles of ``A - B K``.
+    observer_poles : array_like of complex, shape (q,)
+        The observer's error poles (``q = n`` full order, ``n - 1`` reduced order).
+
+    Returns
+    -------
+    ControllerTransferFunction
+
+    Raises
+    ------
+    DesignError
+        Naming ``model`` when it is not single-input single-output; as
+        :func:`solve_diophantine` otherwise.
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> oc.diophantine_controller(model, [-2, -2.5], [-8, -9]).format_polynomials()
+    '(409 s + 360) / (s^2 + 21.5 s + 153.5)'
+
     """
     if model.n_inputs != 1 or model.n_outputs != 1:
-        raise DesignError('the Diophantine design is for single-input single-output plants')
+        raise DesignError('the Diophantine design is for single-input single-output plants',
+                          parameter='model')
     num, den = scipy.signal.ss2tf(model.a, model.b, model.c, model.d)
     closed = np.real(np.poly(np.concatenate([np.ravel(controller_poles),
                                              np.ravel(observer_poles)])))
@@ -262,6 +414,33 @@ def closed_loop_matrix(model: StateSpaceModel, realization: ObserverRealization,
 
     By the separation principle its eigenvalues are ``eig(A - B K)`` together with the
     observer's error poles.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    realization : ObserverRealization
+        The observer, of order ``q``.
+    feedback_gain : numpy.ndarray, shape (m, n)
+        ``K``.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n + q, n + q)
+
+    Raises
+    ------
+    DesignError
+        As :func:`controller_state_space`.
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> observer = oc.design_full_order(model, poles=[-8, -9])
+    >>> k = oc.design_feedback(model, poles=[-2, -2.5]).gain
+    >>> oc.closed_loop_matrix(model, observer.realization, k).shape
+    (4, 4)
+
     """
     a_c, b_c, c_c, d_c = controller_state_space(realization, feedback_gain)
     n_inputs = model.n_inputs
@@ -288,6 +467,32 @@ def closed_loop_poles(model: StateSpaceModel, realization: ObserverRealization,
     A repeated real pole comes out of ``eig`` as a pair split by about ``sqrt(eps)``, often
     into the complex plane; pairs whose imaginary part is below ``SPLIT_RTOL`` of their
     magnitude are reported as the real double pole they are.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    realization : ObserverRealization
+    feedback_gain : numpy.ndarray, shape (m, n)
+
+    Returns
+    -------
+    numpy.ndarray of complex, shape (n + q,)
+        Sorted: the controller poles and the observer poles (separation principle).
+
+    Raises
+    ------
+    DesignError
+        As :func:`controller_state_space`.
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> observer = oc.design_full_order(model, poles=[-8, -9])
+    >>> k = oc.design_feedback(model, poles=[-2, -2.5]).gain
+    >>> oc.closed_loop_poles(model, observer.realization, k).real.round(6).tolist()
+    [-9.0, -8.0, -2.5, -2.0]
+
     """
     poles = scipy.linalg.eigvals(closed_loop_matrix(model, realization, feedback_gain))
     split = np.abs(poles.imag) <= SPLIT_RTOL * np.maximum(1.0, np.abs(poles))

@@ -38,10 +38,20 @@ class FeedbackDesign:
     requested_poles, achieved_poles : numpy.ndarray of complex
         Sorted poles of ``A - B K``.
     method : str
+        Placement algorithm (``'given'`` when the gain was supplied).
     residual : float
+        Relative error of the achieved poles.
     reference_gain : numpy.ndarray or None, shape (m, p)
         ``N`` giving unit DC gain from ``r`` to ``y`` (square systems without a zero at
         ``s = 0`` / ``z = 1``), else None.
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> design = oc.design_feedback(model, poles=[-2, -2.5])
+    >>> design.gain.round(6).tolist(), design.reference_gain.round(6).tolist()
+    ([[5.0, 4.5]], [[5.0]])
 
     """
 
@@ -59,6 +69,26 @@ def reference_gain(model: StateSpaceModel, gain: np.ndarray) -> Optional[np.ndar
 
     The closed-loop DC gain is ``G0 = (C - D K) (-(A - B K))^-1 B + D`` (continuous) or with
     ``(I - (A - B K))^-1`` (discrete); ``N = G0^-1`` when ``G0`` is square and invertible.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    gain : numpy.ndarray, shape (m, n)
+        ``K``.
+
+    Returns
+    -------
+    numpy.ndarray, shape (m, p), or None
+        None when ``m != p`` or ``G0`` is singular (a zero at ``s = 0`` / ``z = 1``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> oc.reference_gain(model, np.array([[5.0, 4.5]])).round(6).tolist()
+    [[5.0]]
+
     """
     if model.n_inputs != model.n_outputs:
         return None
@@ -82,34 +112,52 @@ def design_feedback(model: StateSpaceModel, poles=None, gain=None,
     ----------
     model : StateSpaceModel
     poles : array_like of complex, shape (n,), optional
-        Poles of ``A - B K``.
-    gain : array_like, shape (m, n) or flat, optional
+        Poles of ``A - B K`` (s-plane, or z-plane for a discrete model).
+    gain : array_like, shape (m, n) or flat (m * n,), optional
         A given ``K`` (row-major when flat); it must stabilize ``A - B K``.
     method : str
-        Placement method.
+        Placement method (see :mod:`observer_ros.core.placement`).
+
+    Returns
+    -------
+    FeedbackDesign
 
     Raises
     ------
+    ConfigError
+        ``gain`` of the wrong size; ``poles`` not stable, of the wrong count or unpaired;
+        ``method`` unknown; ``poles`` when neither poles nor a gain are given.
     DesignError
-        Uncontrollable pair, placement failure, or a given gain leaving the loop unstable.
+        Uncontrollable pair, placement failure, or a given ``gain`` leaving the loop
+        unstable.
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> oc.design_feedback(model, poles=[-2, -2.5]).gain.round(6).tolist()
+    [[5.0, 4.5]]
+    >>> oc.design_feedback(model, gain=[-1, 1])  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    observer_ros.core.errors.DesignError: gain: the given K leaves A - B K unstable: poles ...
 
     """
     if gain is not None:
-        gain = matrix_from_flat('feedback.gain', np.ravel(gain), model.n_inputs, model.n_states)
+        gain = matrix_from_flat('gain', np.ravel(gain), model.n_inputs, model.n_states)
         achieved = sort_poles(np.linalg.eigvals(model.a - model.b @ gain))
         if not is_stable(achieved, model.is_discrete):
             raise DesignError(
-                f'feedback.gain: the given K leaves A - B K unstable: poles '
-                f'{format_modes(achieved)}')
+                f'the given K leaves A - B K unstable: poles {format_modes(achieved)}',
+                parameter='gain')
         return FeedbackDesign(gain=gain, requested_poles=achieved, achieved_poles=achieved,
                               method='given', residual=0.0,
                               reference_gain=reference_gain(model, gain))
     if poles is None:
-        raise ValueError('design_feedback needs poles or a gain')
+        raise ConfigError('poles', 'expected the feedback poles or a gain, got neither')
     poles = np.asarray(poles, dtype=complex)
     if not is_stable(poles, model.is_discrete):
-        raise ConfigError('feedback.poles',
-                          f'requested poles {format_modes(poles)} are not stable')
+        raise ConfigError('poles', f'requested poles {format_modes(poles)} are not stable')
     require_controllable(model.a, model.b)
     result = place(model.a, model.b, poles, method)
     return FeedbackDesign(

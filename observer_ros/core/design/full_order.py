@@ -20,12 +20,36 @@ import numpy as np
 from observer_ros.core.analysis import require_observable
 from observer_ros.core.design.common import (
     check_given_gain_stable, ObserverDesign, ObserverRealization, require_stable_poles)
+from observer_ros.core.errors import ConfigError
 from observer_ros.core.model import matrix_from_flat, StateSpaceModel
 from observer_ros.core.placement import place_observer
 
 
 def full_order_realization(model: StateSpaceModel, gain: np.ndarray) -> ObserverRealization:
-    """Observer with state ``x_hat``: ``A - L C``, inputs ``L`` (y) and ``B - L D`` (u)."""
+    """
+    Observer with state ``x_hat``: ``A - L C``, inputs ``L`` (y) and ``B - L D`` (u).
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    gain : numpy.ndarray, shape (n, p)
+        ``L``.
+
+    Returns
+    -------
+    ObserverRealization
+        Of order ``n``, with ``x_hat = xi``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> realization = oc.full_order_realization(model, np.array([[17.0], [72.0]]))
+    >>> print(realization.b_y.ravel(), realization.b_u.ravel())
+    [17. 72.] [0. 1.]
+
+    """
     n_states = model.n_states
     return ObserverRealization(
         a=model.a - gain @ model.c, b_y=gain, b_u=model.b - gain @ model.d,
@@ -55,24 +79,43 @@ def design_full_order(model: StateSpaceModel, poles=None, gain=None,
 
     Raises
     ------
+    ConfigError
+        ``gain`` of the wrong size; ``poles`` of the wrong count or unpaired; ``method``
+        unknown; ``poles`` when neither poles nor a gain are given.
     DesignError
-        Unobservable pair (with the lost modes), placement failure, unstable poles or an
-        unstable given gain.
+        Unobservable pair (with the lost modes), placement failure, unstable ``poles``
+        or a ``gain`` leaving the error unstable.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> design = oc.design_full_order(model, poles=[-8, -9])
+    >>> print(np.round(design.gain, 6).ravel(), design.method)
+    [17. 72.] place
+
+    A given gain is checked rather than designed:
+
+    >>> oc.design_full_order(model, gain=[17, 72]).achieved_poles.round(6).tolist()
+    [(-9+0j), (-8+0j)]
+    >>> oc.design_full_order(model, gain=[17, 72, 1])
+    Traceback (most recent call last):
+    ...
+    observer_ros.core.errors.ConfigError: gain: expected 2x1 (2 values, row-major), got 3
 
     """
     if gain is not None:
-        gain = matrix_from_flat('observer.gain', np.ravel(gain), model.n_states,
-                                model.n_outputs)
-        achieved = check_given_gain_stable(model.a - gain @ model.c, model.is_discrete,
-                                           'observer.gain')
+        gain = matrix_from_flat('gain', np.ravel(gain), model.n_states, model.n_outputs)
+        achieved = check_given_gain_stable(model.a - gain @ model.c, model.is_discrete, 'gain')
         return ObserverDesign(
             kind='full_order', model=model, gain=gain, requested_poles=achieved,
             achieved_poles=achieved, method='given', residual=0.0,
             realization=full_order_realization(model, gain))
     if poles is None:
-        raise ValueError('design_full_order needs poles or a gain')
+        raise ConfigError('poles', 'expected the observer poles or a gain, got neither')
     poles = np.asarray(poles, dtype=complex)
-    require_stable_poles(poles, model.is_discrete, 'observer.poles')
+    require_stable_poles(poles, model.is_discrete, 'poles')
     require_observable(model.a, model.c)
     result = place_observer(model.a, model.c, poles, method)
     return ObserverDesign(
@@ -83,7 +126,32 @@ def design_full_order(model: StateSpaceModel, poles=None, gain=None,
 
 
 def full_order_gain(model: StateSpaceModel, poles, method: str = 'auto') -> np.ndarray:
-    """Shortcut returning only ``L`` from :func:`design_full_order`."""
+    """
+    Shortcut returning only ``L`` from :func:`design_full_order`.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    poles : array_like of complex, shape (n,)
+    method : str
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, p)
+
+    Raises
+    ------
+    ConfigError, DesignError
+        As :func:`design_full_order`.
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> oc.full_order_gain(model, [-8, -9]).round(6).ravel().tolist()
+    [17.0, 72.0]
+
+    """
     return design_full_order(model, poles=poles, method=method).gain
 
 

@@ -27,6 +27,7 @@ returns both and names them.
 """
 
 from dataclasses import dataclass
+import math
 from typing import Optional
 
 import numpy as np
@@ -53,8 +54,17 @@ class KalmanDesign(ObserverDesign):
         Continuous: the CARE solution. Discrete: a-priori (predicted) covariance.
     filtered_covariance : numpy.ndarray or None, shape (n, n)
         Discrete only: ``(I - M C) P``, the covariance of ``x_hat[k|k]``.
-    process_noise, measurement_noise : numpy.ndarray
+    process_noise, measurement_noise : numpy.ndarray, shapes (n, n) and (p, p)
         ``Q`` and ``R`` used (``Q`` discretized when sampled).
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[1, 0.1], [0, 1]], [[0.005], [0.1]],
+    ...                                          [[1, 0]], dt=0.1)
+    >>> design = oc.design_kalman(model, process_noise=[1e-4, 1e-2], measurement_noise=[0.01])
+    >>> design.method, design.filter_gain.shape, design.covariance.shape
+    ('dare', (2, 1), (2, 2))
 
     """
 
@@ -66,11 +76,46 @@ class KalmanDesign(ObserverDesign):
 
 
 def noise_matrices(model: StateSpaceModel, process_noise, measurement_noise):
-    """Validate ``Q`` (n or n*n values) and ``R`` (p or p*p values, positive definite)."""
-    q = covariance_from_flat('observer.process_noise', process_noise, model.n_states)
-    r = covariance_from_flat('observer.measurement_noise', measurement_noise, model.n_outputs)
+    """
+    Validate ``Q`` (n or n*n values) and ``R`` (p or p*p values, positive definite).
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    process_noise : array_like, shape (n,) or (n * n,)
+        ``Q``: diagonal entries or the whole matrix, row-major.
+    measurement_noise : array_like, shape (p,) or (p * p,)
+        ``R``: diagonal entries or the whole matrix, row-major.
+
+    Returns
+    -------
+    q : numpy.ndarray, shape (n, n)
+    r : numpy.ndarray, shape (p, p)
+
+    Raises
+    ------
+    ConfigError
+        Naming ``process_noise`` or ``measurement_noise``: wrong size, asymmetric,
+        indefinite, or (``R``) singular.
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> from observer_ros.core.design.kalman import noise_matrices
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> q, r = noise_matrices(model, [1, 2], [0.5])
+    >>> q.tolist(), r.tolist()
+    ([[1.0, 0.0], [0.0, 2.0]], [[0.5]])
+    >>> noise_matrices(model, [1, 2], [0.0])  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    observer_ros.core.errors.ConfigError: measurement_noise: expected a positive definite ...
+
+    """
+    q = covariance_from_flat('process_noise', process_noise, model.n_states)
+    r = covariance_from_flat('measurement_noise', measurement_noise, model.n_outputs)
     if np.linalg.eigvalsh(r).min() <= 0.0:
-        raise ConfigError('observer.measurement_noise',
+        raise ConfigError('measurement_noise',
                           'expected a positive definite matrix (every output noisy)')
     return q, r
 
@@ -96,7 +141,40 @@ def _dare(a, c, q, r):
 
 def discrete_kalman(model: StateSpaceModel, q: np.ndarray, r: np.ndarray,
                     a: Optional[np.ndarray] = None) -> KalmanDesign:
-    """Solve the DARE for ``(A, C, Q, R)``; ``a`` overrides ``model.a`` (sampled models)."""
+    """
+    Solve the DARE for ``(A, C, Q, R)``; ``a`` overrides ``model.a`` (sampled models).
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    q : numpy.ndarray, shape (n, n)
+        Covariance of the process noise per sample (already validated).
+    r : numpy.ndarray, shape (p, p)
+        Covariance of the measurement noise (already validated, positive definite).
+    a : numpy.ndarray, shape (n, n), optional
+        The discrete ``A`` to use instead of ``model.a``.
+
+    Returns
+    -------
+    KalmanDesign
+        With ``method`` ``'dare'``.
+
+    Raises
+    ------
+    DesignError
+        No stabilizing DARE solution, or an inaccurate one.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import observer_ros.core as oc
+    >>> from observer_ros.core.design.kalman import discrete_kalman
+    >>> model = oc.StateSpaceModel.from_matrices([[0.9]], [[1]], [[1]], dt=0.1)
+    >>> design = discrete_kalman(model, np.array([[1.0]]), np.array([[1.0]]))
+    >>> round(float(design.filter_gain[0, 0]), 6)  # P = 1.483925 solves P^2 - 0.81 P - 1 = 0
+    0.597407
+
+    """
     a = model.a if a is None else a
     covariance, filter_gain, residual = _dare(a, model.c, q, r)
     gain = a @ filter_gain
@@ -129,13 +207,26 @@ def design_kalman(model: StateSpaceModel, process_noise, measurement_noise) -> K
     Returns
     -------
     KalmanDesign
+        ``gain`` is ``L`` ``(n, p)`` (the predictor gain ``A M`` for a discrete model).
 
     Raises
     ------
     ConfigError
-        Wrong sizes, asymmetric or indefinite covariances.
+        Naming ``process_noise`` or ``measurement_noise``: wrong sizes, asymmetric or
+        indefinite covariances.
     DesignError
         No stabilizing Riccati solution (undetectable pair, for instance).
+
+    Examples
+    --------
+    A continuous double integrator with a noisy position measurement (CARE):
+
+    >>> import numpy as np
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> design = oc.design_kalman(model, process_noise=[0, 1], measurement_noise=[1])
+    >>> print(np.round(design.gain, 6).ravel(), design.method)
+    [1.414214 1.      ] care
 
     """
     q, r = noise_matrices(model, process_noise, measurement_noise)
@@ -169,9 +260,49 @@ def design_sampled_kalman(model: StateSpaceModel, process_noise, measurement_noi
     The plant is discretized exactly (zero-order hold), the process noise intensity ``Q``
     with Van Loan's method; ``R`` is the covariance of each sampled measurement. The
     result's ``model`` is the sampled model (``dt`` set).
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        Continuous (``model.dt == 0``).
+    process_noise : array_like, shape (n,) or (n * n,)
+        Continuous-time intensity ``Q``.
+    measurement_noise : array_like, shape (p,) or (p * p,)
+        Covariance ``R`` of each sample.
+    dt : float
+        Sample interval in seconds, > 0.
+
+    Returns
+    -------
+    KalmanDesign
+        ``filter_gain`` is ``M`` ``(n, p)``, ``gain`` the predictor gain ``Ad M``.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``model`` when it is discrete, ``dt`` when it is not a finite period > 0,
+        ``process_noise`` or ``measurement_noise`` as :func:`design_kalman`.
+    DesignError
+        No stabilizing Riccati solution.
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> design = oc.design_sampled_kalman(model, [0, 1], [0.01], dt=0.1)
+    >>> design.model.dt, design.filter_gain.round(4).ravel().tolist()
+    (0.1, [0.5485, 2.1248])
+
     """
     if model.is_discrete:
-        raise ConfigError('model.dt', 'design_sampled_kalman expects a continuous model')
+        raise ConfigError('model', f'expected a continuous model (dt = 0) to sample, got '
+                          f'a discrete one (dt = {model.dt})')
+    try:
+        dt = float(dt)
+    except (TypeError, ValueError) as e:
+        raise ConfigError('dt', f'expected a number of seconds, got {dt!r}') from e
+    if not (math.isfinite(dt) and dt > 0.0):
+        raise ConfigError('dt', f'expected a finite sample interval > 0 s, got {dt}')
     q, r = noise_matrices(model, process_noise, measurement_noise)
     ad, bd = zero_order_hold(model.a, model.b, dt)
     sampled = StateSpaceModel(a=ad, b=bd, c=model.c, d=model.d, dt=dt,

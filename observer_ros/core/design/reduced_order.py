@@ -74,6 +74,14 @@ class ReducedOrderDesign(ObserverDesign):
     c_hat, d_hat : numpy.ndarray
         ``w_hat = c_hat eta + d_hat y``: ``[0; I]`` ``(n, n-p)`` and ``[I; L]`` ``(n, p)``.
 
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> design = oc.design_reduced_order(model, poles=[-10])
+    >>> design.order, design.gain.tolist(), design.a_hat.tolist()
+    (1, [[10.0]], [[-10.0]])
+
     """
 
     transform: np.ndarray
@@ -110,33 +118,47 @@ def measured_first_transform(model: StateSpaceModel,
         as the unselected unit vectors when ``C`` selects states (keeping their order).
         ``'observability'``: the observability matrix (single output only).
 
+    Returns
+    -------
+    numpy.ndarray, shape (n, n)
+
     Raises
     ------
     DesignError
-        ``C`` rank deficient, nothing left to estimate, or ``Q`` ill-conditioned.
+        Naming ``C`` when it is rank deficient or leaves nothing to estimate; naming
+        ``coordinates`` (``C`` for ``'orthonormal'``) when ``Q`` is ill-conditioned.
     ConfigError
-        Unknown ``coordinates`` or ``'observability'`` with several outputs.
+        Naming ``coordinates``: unknown, or ``'observability'`` with several outputs.
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices(
+    ...     [[0, 1, 0], [0, 0, 1], [-1, -2, -3]], [[0], [0], [1]], [[0, 1, 0]])
+    >>> print(oc.measured_first_transform(model))
+    [[0. 1. 0.]
+     [1. 0. 0.]
+     [0. 0. 1.]]
 
     """
     c = model.c
     n_states, n_outputs = model.n_states, model.n_outputs
     if coordinates not in COORDINATES:
         raise ConfigError(
-            'observer.coordinates', f'expected one of {", ".join(COORDINATES)}, '
-            f'got {coordinates!r}')
+            'coordinates', f'expected one of {", ".join(COORDINATES)}, got {coordinates!r}')
     rank = np.linalg.matrix_rank(c)
     if rank < n_outputs:
         raise DesignError(
-            f'model.C: a reduced-order observer needs C of full row rank p = {n_outputs}, '
-            f'got rank {rank}; remove the redundant outputs')
+            f'a reduced-order observer needs C of full row rank p = {n_outputs}, '
+            f'got rank {rank}; remove the redundant outputs', parameter='C')
     if n_outputs >= n_states:
         raise DesignError(
-            f'model.C: {n_outputs} outputs measure all {n_states} states; a reduced-order '
-            f'observer has nothing to estimate')
+            f'{n_outputs} outputs measure all {n_states} states; a reduced-order '
+            f'observer has nothing to estimate', parameter='C')
     if coordinates == 'observability':
         if n_outputs != 1:
             raise ConfigError(
-                'observer.coordinates',
+                'coordinates',
                 f"'observability' coordinates need a single output, the model has {n_outputs}")
         transform = observability_matrix(model.a, c)
     else:
@@ -149,15 +171,31 @@ def measured_first_transform(model: StateSpaceModel,
         transform = np.vstack([c, complement])
     condition = np.linalg.cond(transform)
     if not np.isfinite(condition) or condition > MAX_TRANSFORM_CONDITION:
+        hint = "; try coordinates='orthonormal'" if coordinates == 'observability' else ''
         raise DesignError(
             f'the coordinate change to measured-first form is ill-conditioned '
-            f'(condition number {condition:.3g} > {MAX_TRANSFORM_CONDITION:.0g}); '
-            f"try observer.coordinates: 'orthonormal'")
+            f'(condition number {condition:.3g} > {MAX_TRANSFORM_CONDITION:.0g}){hint}',
+            parameter='coordinates' if coordinates == 'observability' else 'C')
     return transform
 
 
 def partition_model(model: StateSpaceModel, transform: np.ndarray) -> Partition:
-    """Split ``Q A Q^-1`` and ``Q B`` into measured (``a``) and unmeasured (``b``) blocks."""
+    """
+    Split ``Q A Q^-1`` and ``Q B`` into measured (``a``) and unmeasured (``b``) blocks.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    transform : numpy.ndarray, shape (n, n)
+        ``Q`` from :func:`measured_first_transform`.
+
+    Returns
+    -------
+    Partition
+        ``aaa`` ``(p, p)``, ``aab`` ``(p, n-p)``, ``aba`` ``(n-p, p)``, ``abb``
+        ``(n-p, n-p)``, ``ba`` ``(p, m)``, ``bb`` ``(n-p, m)``.
+
+    """
     p = model.n_outputs
     a_w = transform @ model.a @ np.linalg.inv(transform)
     b_w = transform @ model.b
@@ -186,6 +224,29 @@ def design_reduced_order(model: StateSpaceModel, poles=None, gain=None,
     Returns
     -------
     ReducedOrderDesign
+        ``gain`` is ``L``, shape ``(n - p, p)``.
+
+    Raises
+    ------
+    ConfigError
+        ``gain`` of the wrong size, ``poles`` of the wrong count (or neither given),
+        ``coordinates`` or ``method`` unknown.
+    DesignError
+        ``C`` unsuitable (see :func:`measured_first_transform`), unobservable pair,
+        unstable ``poles`` or a ``gain`` leaving the error unstable.
+
+    Examples
+    --------
+    Ogata's minimum-order observer of a third-order plant measured in its first state:
+
+    >>> import numpy as np
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices(
+    ...     [[0, 1, 0], [0, 0, 1], [-6, -11, -6]], [[0], [0], [1]], [[1, 0, 0]])
+    >>> design = oc.design_reduced_order(model, poles=[-2 + 3.4641j, -2 - 3.4641j])
+    >>> print(np.round(design.gain, 3))
+    [[-2.]
+     [17.]]
 
     References
     ----------
@@ -197,20 +258,20 @@ def design_reduced_order(model: StateSpaceModel, poles=None, gain=None,
     blocks = partition_model(model, transform)
     n_reduced, n_outputs = model.n_states - model.n_outputs, model.n_outputs
     if gain is not None:
-        gain = matrix_from_flat('observer.gain', np.ravel(gain), n_reduced, n_outputs)
+        gain = matrix_from_flat('gain', np.ravel(gain), n_reduced, n_outputs)
         achieved = check_given_gain_stable(blocks.abb - gain @ blocks.aab,
-                                           model.is_discrete, 'observer.gain')
+                                           model.is_discrete, 'gain')
         requested, method_used, residual = achieved, 'given', 0.0
     else:
         if poles is None:
-            raise ValueError('design_reduced_order needs poles or a gain')
+            raise ConfigError('poles', 'expected the observer poles or a gain, got neither')
         poles = np.asarray(poles, dtype=complex)
         if poles.size != n_reduced:
             raise ConfigError(
-                'observer.poles',
+                'poles',
                 f'a reduced-order observer of this model has order n - p = {n_reduced}: '
                 f'expected {n_reduced} poles, got {poles.size}')
-        require_stable_poles(poles, model.is_discrete, 'observer.poles')
+        require_stable_poles(poles, model.is_discrete, 'poles')
         require_observable(model.a, model.c)
         result = place_observer(blocks.abb, blocks.aab, poles, method)
         gain, achieved = result.gain, result.achieved_poles
