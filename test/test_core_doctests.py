@@ -49,14 +49,14 @@ DOCUMENTED_MODULES = (
     'observer_ros.core.control',
     'observer_ros.core.simulation',
     'observer_ros.core.evaluation',
+    'observer_ros.core.arguments',
+    'observer_ros.core.observers',
+    'observer_ros.core.estimators',
+    'observer_ros.core.estimators.base',
+    'observer_ros.core.estimators.protocol',
+    'observer_ros.core.estimators.time_varying_kalman',
+    'observer_ros.core.streaming',
 )
-
-#: Public names whose docstrings live in modules being reworked for the estimator protocol
-#: (``core/estimators``, ``core/streaming.py``): their numpydoc sections and Examples are
-#: still to be written, so they are not checked yet. The package docstring's example runs
-#: an :class:`Estimator` from :func:`make_estimator` meanwhile.
-DOCS_PENDING = frozenset({'Estimator', 'StreamEstimator', 'make_estimator',
-                          'step_design_for'})
 
 
 @pytest.mark.parametrize('name', DOCUMENTED_MODULES)
@@ -84,8 +84,6 @@ def test_every_public_name_is_documented_in_numpydoc_sections():
     for name, value in _public_objects():
         doc = inspect.getdoc(value) or ''
         sections = {line.strip() for line in doc.splitlines()}
-        if name in DOCS_PENDING:
-            continue
         wanted = {'Examples'}
         if inspect.isfunction(value):
             signature = inspect.signature(value)
@@ -100,12 +98,6 @@ def test_every_public_name_is_documented_in_numpydoc_sections():
             wanted.add('Parameters or Attributes')
         missing.extend(f'{name}: {section}' for section in sorted(wanted - sections))
     assert not missing, missing
-
-
-def test_pending_docs_are_still_pending():
-    # Once one of them gains its examples it leaves the list, so the list cannot go stale.
-    for name in DOCS_PENDING:
-        assert 'Examples' not in (inspect.getdoc(getattr(oc, name)) or ''), name
 
 
 def test_namespace_lists_what_it_exports():

@@ -259,12 +259,6 @@ def test_errors_survive_pickling(error):
                                                         str(error))
 
 
-#: Core modules that still name ROS parameters (``observer.gain``, ``model.D``): the
-#: estimators are being reworked for the estimator protocol and will follow. ``config.py``
-#: and ``report.py`` are the boundary, leaving the core.
-BOUNDARY = {'config.py', 'report.py'}
-PENDING = {'estimators/base.py', 'estimators/full_order.py'}
-
 ROS_NAME = re.compile(r'^(observer|model|plant|feedback|topics)\.[A-Za-z_]')
 
 
@@ -282,11 +276,7 @@ def test_core_modules_speak_in_argument_names():
     offenders = {}
     for path in sorted(CORE.rglob('*.py')):
         relative = path.relative_to(CORE).as_posix()
-        if relative in BOUNDARY:
-            continue
         names = _ros_names(path)
-        if relative in PENDING:
-            assert names, f'{relative} no longer names ROS parameters: drop it from PENDING'
-        elif names:
+        if names:
             offenders[relative] = names
     assert not offenders, offenders

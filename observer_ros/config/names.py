@@ -36,6 +36,7 @@ _MODEL = {'A': 'model.A', 'a': 'model.A', 'B': 'model.B', 'b': 'model.B', 'C': '
 ARGUMENT_PARAMETERS = {
     'model': dict(_MODEL),
     'observer': {**_MODEL, 'type': 'observer.type', 'initial_state': 'observer.initial_state',
+                 'interval_resolution_ns': 'observer.interval_resolution',
                  **{argument.name: f'observer.{argument.name}'
                     for argument in observer_arguments()}},
     'feedback': {**_MODEL, 'gain': 'feedback.gain', 'poles': 'feedback.poles',

@@ -135,8 +135,11 @@ class System:
         if self.observer is None:
             raise ConfigError('observer.poles', 'no observer is configured: give '
                               'observer.poles, observer.gain or the Kalman noises')
-        return self.kind.estimator(self.observer, self.observer_values(),
-                                   self.initial_estimate, self.interval_resolution_ns)
+        try:
+            return self.kind.estimator(self.observer, self.observer_values(),
+                                       self.initial_estimate, self.interval_resolution_ns)
+        except ConfigError as e:
+            raise named(e, 'observer', _observer_fallback(self.parameters)) from e
 
     @property
     def form(self) -> str:

@@ -55,9 +55,13 @@ Observer-controller
     :func:`solve_diophantine`, :func:`controller_state_space`, :func:`closed_loop_matrix`,
     :func:`closed_loop_poles`, :class:`ControllerTransferFunction`,
     :class:`UnstableControllerWarning`, :class:`StateFeedbackLaw`.
+Observer types
+    :func:`observer_type`, :func:`observer_types`, :class:`ObserverType`, :func:`register`,
+    :class:`Argument` (what a type reads).
 Estimators
-    :func:`make_estimator`, :func:`step_design_for`, :class:`Estimator`,
-    :class:`StreamEstimator`.
+    :func:`make_estimator`, :class:`StateEstimator` (the protocol), :class:`Estimator` (the
+    constant-``G`` engine), :class:`TimeVaryingKalman`, :class:`Prediction`,
+    :class:`StreamEstimator`, :class:`ValueLimits`, :func:`transition`.
 Simulation and evaluation
     :class:`PlantSimulator`, :func:`error_report`, :class:`ErrorReport`,
     :func:`format_error_table`, :func:`settling_time`, :func:`decay_rate`.
@@ -102,7 +106,10 @@ _EXPORTS = {
     'observer_ros.core.errors': (
         'ObserverRosError', 'ConfigError', 'DesignError', 'StampError'),
     'observer_ros.core.model': ('StateSpaceModel',),
-    'observer_ros.core.discretize': ('zero_order_hold', 'van_loan'),
+    'observer_ros.core.discretize': ('zero_order_hold', 'van_loan', 'transition'),
+    'observer_ros.core.arguments': ('Argument',),
+    'observer_ros.core.observers': ('ObserverType', 'observer_type', 'observer_types',
+                                    'register'),
     'observer_ros.core.analysis': (
         'RankReport', 'observability', 'controllability', 'observability_matrix',
         'controllability_matrix', 'pbh_lost_modes', 'require_observable',
@@ -127,8 +134,9 @@ _EXPORTS = {
         'controller_transfer_function', 'diophantine_controller', 'solve_diophantine',
         'controller_state_space', 'closed_loop_matrix', 'closed_loop_poles'),
     'observer_ros.core.control': ('StateFeedbackLaw',),
-    'observer_ros.core.estimators': ('Estimator', 'make_estimator', 'step_design_for'),
-    'observer_ros.core.streaming': ('StreamEstimator',),
+    'observer_ros.core.estimators': ('Estimator', 'Prediction', 'StateEstimator',
+                                     'TimeVaryingKalman', 'make_estimator'),
+    'observer_ros.core.streaming': ('StreamEstimator', 'ValueLimits'),
     'observer_ros.core.simulation': ('PlantSimulator',),
     'observer_ros.core.evaluation': (
         'ErrorReport', 'error_report', 'format_error_table', 'settling_time', 'decay_rate'),

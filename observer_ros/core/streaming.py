@@ -51,6 +51,16 @@ class ValueLimits:
     Largest magnitudes a stream accepts (measurements, inputs) and returns (estimates).
 
     ``math.inf`` (the default) sets no limit; non-finite values are refused regardless.
+
+    Attributes
+    ----------
+    measurement, input, estimate, innovation : float
+
+    Examples
+    --------
+    >>> ValueLimits(measurement=1e9).input
+    inf
+
     """
 
     measurement: float = math.inf
@@ -157,6 +167,22 @@ class StreamEstimator:
         their limit (not returned; the estimator restarted).
     events : list of (str, str)
         ``(kind, text)`` of notable events since the caller last cleared it.
+
+
+    Examples
+    --------
+    >>> from observer_ros.core import design_full_order, make_estimator, StateSpaceModel
+    >>> model = StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> stream = StreamEstimator(make_estimator(design_full_order(model, poles=[-4, -5])),
+    ...                          max_gap_ns=10 ** 9)
+    >>> [s.stamp_ns for s in stream.add_input(0, [0.0]) + stream.add_measurement(0, [1.0])]
+    [0]
+    >>> [s.stamp_ns for s in stream.add_measurement(10_000_000, [1.0])]  # input of 0 held
+    [10000000]
+    >>> stream.add_measurement(20_000_000, [1.0])  # waits: the input of 10 ms may come
+    []
+    >>> [s.stamp_ns for s in stream.add_input(10_000_000, [0.5])]
+    [20000000]
 
     """
 

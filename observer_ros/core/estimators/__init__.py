@@ -50,10 +50,26 @@ def make_estimator(design: ObserverDesign, initial_state=None, method: str = 'au
         Further arguments of the type (``time_varying=True``, ``initial_covariance=...``
         for ``kalman``).
 
+    Returns
+    -------
+    StateEstimator
+        The type's runtime estimator: an :class:`Estimator`, or a
+        :class:`TimeVaryingKalman` for ``kalman`` with ``time_varying=True``.
+
     Raises
     ------
     ConfigError
         ``type``: the design's kind is no registered observer type; or a bad option.
+
+    Examples
+    --------
+    >>> from observer_ros.core import design_kalman, StateSpaceModel
+    >>> model = StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> design = design_kalman(model, [0.0, 1.0], [0.01])
+    >>> type(make_estimator(design)).__name__
+    'Estimator'
+    >>> type(make_estimator(design, time_varying=True)).__name__
+    'TimeVaryingKalman'
 
     """
     from observer_ros.core.observers import observer_type  # the types import this module

@@ -135,7 +135,7 @@ class StepDesign:
     def __init__(self, model: StateSpaceModel) -> None:
         if np.any(model.d != 0.0):
             raise ConfigError(
-                'model.D', 'the runtime estimators need D = 0 (a sampled loop has no direct '
+                'D', 'the runtime estimators need D = 0 (a sampled loop has no direct '
                 'feedthrough); D is used by the design tools only')
         self.model = model
 
@@ -225,6 +225,18 @@ class Estimator(StateEstimator):
     :meth:`restart`) initialises the estimate from ``y`` as described for
     ``initial_state``; its innovation is ``y - C x_prior`` with the prior the pinned initial
     state, zero, or (after a restart) the estimate held.
+
+
+    Examples
+    --------
+    >>> from observer_ros.core import design_full_order, make_estimator, StateSpaceModel
+    >>> model = StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> estimator = make_estimator(design_full_order(model, poles=[-4, -5]))
+    >>> estimator.update(0, [1.0], [0.0]).tolist()  # the first measurement starts it
+    [1.0, 0.0]
+    >>> x = estimator.update(10_000_000, [1.0], [0.0])  # 10 ms later
+    >>> estimator.last_interval_ns
+    10000000
 
     """
 
@@ -411,7 +423,7 @@ class Estimator(StateEstimator):
     def interval_resolution_ns(self, value: int) -> None:
         value = int(value)
         if value < 0:
-            raise ValueError(f'observer.interval_resolution: expected >= 0 ns, got {value}')
+            raise ConfigError('interval_resolution_ns', f'expected >= 0, got {value}')
         if value != self._resolution_ns:
             self._resolution_ns = value
             self._cache.clear()

@@ -64,7 +64,7 @@ class FullOrderStep(StepDesign):
                 self.filter_gain = np.linalg.solve(self.model.a, design.gain)
             except np.linalg.LinAlgError as e:
                 raise ConfigError(
-                    'observer.gain', 'a discrete model with a singular A cannot run a given '
+                    'gain', 'a discrete model with a singular A cannot run a given '
                     'predictor gain in current-estimator form; give observer.poles') from e
 
     def design_step(self, ad, bd, dt) -> StepMatrices:

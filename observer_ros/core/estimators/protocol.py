@@ -32,7 +32,21 @@ import numpy as np
 
 
 class Prediction(NamedTuple):
-    """An estimate predicted to a stamp: ``x_hat`` and, with a covariance, ``P``."""
+    """
+    An estimate predicted to a stamp: ``x_hat`` and, with a covariance, ``P``.
+
+    Attributes
+    ----------
+    stamp_ns : int
+    estimate : numpy.ndarray, shape (n,)
+    covariance : numpy.ndarray or None, shape (n, n)
+
+    Examples
+    --------
+    >>> Prediction(5, [1.0], None).stamp_ns
+    5
+
+    """
 
     stamp_ns: int
     estimate: np.ndarray
@@ -56,6 +70,14 @@ class StateEstimator(ABC):
     measurement ``y`` stamped ``stamp_ns`` and the input ``u`` held since the previous
     sample; the first sample (and the first after :meth:`reset` or :meth:`restart`) starts
     the estimate. :meth:`predict` looks ahead without changing anything.
+
+    Examples
+    --------
+    >>> from observer_ros.core import design_kalman, make_estimator, StateSpaceModel
+    >>> model = StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> filter_ = make_estimator(design_kalman(model, [0.0, 1.0], [0.01]), time_varying=True)
+    >>> isinstance(filter_, StateEstimator), filter_.supports_batch
+    (True, False)
 
     """
 

@@ -79,6 +79,12 @@ class ObserverType:
         ``vet(model, values)`` raises for values the type cannot take together with others
         (run before ``design``).
 
+    Examples
+    --------
+    >>> kind = observer_type('full_order')
+    >>> kind.values({'poles': ['-4', '-5']})['method']
+    'auto'
+
     """
 
     name: str
@@ -118,10 +124,26 @@ def register(kind: ObserverType) -> ObserverType:
     An argument name shared by several types (``poles``, ``gain``) must be the same
     :class:`Argument` everywhere, so that the schema has one parameter for it.
 
+    Parameters
+    ----------
+    kind : ObserverType
+
+    Returns
+    -------
+    ObserverType
+        ``kind`` itself, so that a module can write ``TYPE = register(ObserverType(...))``.
+
     Raises
     ------
     ValueError
         A type of that name is registered already, or an argument clashes.
+
+    Examples
+    --------
+    >>> register(observer_type('chen'))
+    Traceback (most recent call last):
+    ...
+    ValueError: observer type 'chen' is registered already
 
     """
     if kind.name in _TYPES:
@@ -141,10 +163,26 @@ def observer_type(name: str) -> ObserverType:
     """
     Return the registered type called ``name``.
 
+    Parameters
+    ----------
+    name : str
+
+    Returns
+    -------
+    ObserverType
+
     Raises
     ------
     ConfigError
         ``type``: no such type (the message lists the registered ones).
+
+    Examples
+    --------
+    >>> try:
+    ...     observer_type('luenberger')
+    ... except ValueError as error:
+    ...     print(error.parameter, '|', error.reason.split(',')[0])
+    type | expected one of full_order
 
     """
     kind = _TYPES.get(name)
@@ -154,7 +192,19 @@ def observer_type(name: str) -> ObserverType:
 
 
 def observer_types() -> tuple:
-    """Return the registered types, in registration order."""
+    """
+    Return the registered types, in registration order.
+
+    Returns
+    -------
+    tuple of ObserverType
+
+    Examples
+    --------
+    >>> observer_types()[0].name
+    'full_order'
+
+    """
     return tuple(_TYPES.values())
 
 
