@@ -190,3 +190,17 @@ def test_every_parameter_is_described_and_matrices_say_row_major():
         if spec.name in ('model.A', 'model.B', 'model.C', 'model.D', 'observer.gain',
                          'feedback.gain', 'feedback.reference_gain'):
             assert 'row-major' in spec.description, spec.name
+
+
+def test_a_discrete_model_without_a_plant_section_runs_at_its_own_rate(tmp_path):
+    # before: "plant.rate_hz: a discrete model with model.dt = 0.1 s runs at 10 Hz, got 100.0"
+    path = tmp_path / 'discrete.yaml'
+    path.write_text('/**:\n  ros__parameters:\n'
+                    '    model: {A: [1.0, 0.1, 0.0, 1.0], B: [0.005, 0.1], C: [1.0, 0.0], '
+                    'dt: 0.1}\n'
+                    "    observer: {poles: ['0.5', '0.6']}\n")
+    result = run_cli(path, '--json')
+    assert result.returncode == 0, result.stderr
+    system = validate_parameters(load_parameter_file(str(path)))
+    assert system.plant.rate_hz == pytest.approx(10.0)
+    assert json.loads(result.stdout)['observer.type'] == 'full_order'

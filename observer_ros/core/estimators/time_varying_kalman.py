@@ -34,7 +34,6 @@ R. E. Kalman, "A new approach to linear filtering and prediction problems", 1960
 R. S. Bucy and P. D. Joseph, Filtering for Stochastic Processes, 1968 (the Joseph form).
 """
 
-from collections import OrderedDict
 import math
 from typing import Optional
 
@@ -49,6 +48,9 @@ NANOSECONDS = 1_000_000_000
 
 #: Distinct intervals whose sampled model is kept.
 CACHE_SIZE = 256
+
+#: Distinct recent intervals remembered for :meth:`TimeVaryingKalman.recent_intervals`.
+RECENT = 4
 
 
 class TimeVaryingKalman(StateEstimator):
@@ -110,10 +112,12 @@ class TimeVaryingKalman(StateEstimator):
         self.initial_state = initial_state
         self._resolution_ns = 0
         self._last_key_dt = self._last_sampled = None
-        self._cache: OrderedDict = OrderedDict()
-        self._recent: OrderedDict = OrderedDict()
+        self._cache: dict = {}
+        self._recent: tuple = ()
         self.interval_resolution_ns = interval_resolution_ns
         self._identity = np.eye(n)
+        self._c_row = self.model.c[0].copy() if self.n_outputs == 1 else None
+        self._r_value = float(self.measurement_noise[0, 0])
         self.reset()
 
     # --- state -----------------------------------------------------------------------------
@@ -144,9 +148,19 @@ class TimeVaryingKalman(StateEstimator):
         """Current estimate ``x[k|k]`` (a copy)."""
         return self._x.copy()
 
+    def _unpack_one(self) -> None:
+        one = self._one
+        if one is not None:
+            self._one = None
+            innovation, variance, k = one
+            self._innovation = np.array([innovation])
+            self._s = np.array([[variance]])
+            self._k = k.reshape(-1, 1)
+
     @property
     def innovation(self) -> np.ndarray:
         """Last innovation ``y - C x-``."""
+        self._unpack_one()
         return self._innovation.copy()
 
     @property
@@ -157,6 +171,7 @@ class TimeVaryingKalman(StateEstimator):
     @property
     def innovation_covariance(self) -> Optional[np.ndarray]:
         """``S`` of the last update (None before the first)."""
+        self._unpack_one()
         return self._s
 
     @property
@@ -167,6 +182,7 @@ class TimeVaryingKalman(StateEstimator):
     @property
     def gain(self) -> Optional[np.ndarray]:
         """The filter gain ``K`` of the last update, ``(n, p)``."""
+        self._unpack_one()
         return self._k
 
     @property
@@ -182,12 +198,16 @@ class TimeVaryingKalman(StateEstimator):
         if value != self._resolution_ns:
             self._resolution_ns = value
             self._cache.clear()
-            self._recent.clear()
+            self._recent = ()
             self._last_key_dt = self._last_sampled = None
 
     def recent_intervals(self) -> list:
         """Return the last few distinct intervals (ns) sampled, newest first."""
         return list(self._recent)[::-1]
+
+    @property
+    def _discrete(self) -> bool:
+        return self.model.dt > 0.0
 
     # --- the filter ----------------------------------------------------------------------
 
@@ -200,30 +220,24 @@ class TimeVaryingKalman(StateEstimator):
         return sampled
 
     def _lookup(self, dt_ns: int, remember: bool) -> tuple:
-        if self.model.is_discrete:
+        key = dt_ns
+        if self._discrete:
             key = 0
-        else:
-            key = dt_ns
+        elif self._resolution_ns:
             resolution = self._resolution_ns
-            if resolution:
-                key = max(1, (dt_ns + resolution // 2) // resolution) * resolution
-        sampled = self._cache.get(key)
+            key = max(1, (dt_ns + resolution // 2) // resolution) * resolution
+        cache = self._cache
+        sampled = cache.get(key)
         if sampled is None:
-            if self.model.is_discrete:
+            if self._discrete:
                 sampled = (self.model.a, self.model.b, self.process_noise)
             else:
                 sampled = transition(self.model, key / NANOSECONDS, self.process_noise)
-            self._cache[key] = sampled
-            if len(self._cache) > CACHE_SIZE:
-                self._cache.popitem(last=False)
-        else:
-            self._cache.move_to_end(key)
-        if not remember:
-            return sampled
-        self._recent[key] = None
-        self._recent.move_to_end(key)
-        if len(self._recent) > 4:
-            self._recent.popitem(last=False)
+            if len(cache) >= CACHE_SIZE:
+                del cache[next(iter(cache))]  # the oldest interval sampled
+            cache[key] = sampled
+        if remember and key not in self._recent:
+            self._recent = (self._recent + (key,))[-RECENT:]
         return sampled
 
     def try_intervals(self, intervals_ns) -> None:
@@ -232,25 +246,48 @@ class TimeVaryingKalman(StateEstimator):
             self._sampled(int(dt_ns))
 
     def _measure(self, x_prior: np.ndarray, p_prior: np.ndarray, y: np.ndarray) -> None:
+        if self.n_outputs == 1:
+            self._measure_one(x_prior, p_prior, y)
+            return
         c, r = self.model.c, self.measurement_noise
         pc = p_prior @ c.T
         s = c @ pc + r
         innovation = y - c @ x_prior
-        if self.n_outputs == 1:  # S is a number: no factorisation
-            variance = s[0, 0]
-            k = pc / variance
-            nis = innovation[0] * innovation[0] / variance
-        else:
-            s = 0.5 * (s + s.T)
-            factor = np.linalg.cholesky(s)
-            k = np.linalg.solve(factor.T, np.linalg.solve(factor, pc.T)).T  # P- C^T S^-1
-            whitened = np.linalg.solve(factor, innovation)
-            nis = whitened @ whitened
-        correction = self._identity - k @ c
-        p = correction @ p_prior @ correction.T + k @ r @ k.T  # Joseph form
+        s = 0.5 * (s + s.T)
+        factor = np.linalg.cholesky(s)
+        k = np.linalg.solve(factor.T, np.linalg.solve(factor, pc.T)).T  # P- C^T S^-1
+        whitened = np.linalg.solve(factor, innovation)
+        nis = whitened @ whitened
+        noise = k @ r @ k.T
+        # Joseph form (I - K C) P- (I - K C)^T + K R K^T, its products taken as rank-p
+        # updates: (I - K C) P- = P- - K (P- C^T)^T, then M (I - K C)^T = M - (M C^T) K^T.
+        left = p_prior - k @ pc.T
+        p = left - (left @ c.T) @ k.T + noise
         self._x = x_prior + k @ innovation
-        self._p = 0.5 * (p + p.T)
+        p += p.T
+        p *= 0.5
+        self._p = p
         self._innovation, self._s, self._k, self._nis = innovation, s, k, float(nis)
+        self._one = None
+
+    def _measure_one(self, x_prior: np.ndarray, p_prior: np.ndarray, y: np.ndarray) -> None:
+        """:meth:`_measure` for one output: the same steps on vectors, ``S`` a number."""
+        c, r = self._c_row, self._r_value
+        pc = p_prior @ c
+        variance = float(c @ pc) + r
+        k = pc / variance
+        innovation = float(y[0]) - float(c @ x_prior)
+        outer = np.multiply.outer
+        # Joseph form, as in _measure: left = (I - K C) P-, then left (I - K C)^T + K R K^T
+        # = left - (left C^T - R K) K^T.
+        left = p_prior - outer(k, pc)
+        p = left - outer(left @ c - k * r, k)
+        p += p.T
+        p *= 0.5
+        self._x = x_prior + k * innovation
+        self._p = p
+        self._one = (innovation, variance, k)  # the arrays of the properties, when read
+        self._nis = innovation * innovation / variance
 
     def update(self, stamp_ns: int, y, u) -> np.ndarray:
         """
@@ -264,12 +301,14 @@ class TimeVaryingKalman(StateEstimator):
             Wrong sizes or non-finite values.
 
         """
-        y = np.asarray(y, dtype=float).reshape(-1)
-        u = np.asarray(u, dtype=float).reshape(-1)
-        if y.size != self.n_outputs or not np.isfinite(y).all():
-            raise ValueError(f'y: expected {self.n_outputs} finite values, got {y.tolist()}')
-        if u.size != self.n_inputs or not np.isfinite(u).all():
-            raise ValueError(f'u: expected {self.n_inputs} finite values, got {u.tolist()}')
+        if type(y) is not np.ndarray or y.ndim != 1 or y.dtype != float:
+            y = np.asarray(y, dtype=float).reshape(-1)
+        if type(u) is not np.ndarray or u.ndim != 1 or u.dtype != float:
+            u = np.asarray(u, dtype=float).reshape(-1)
+        if y.size != self.n_outputs or not math.isfinite(y @ y) and not np.isfinite(y).all():
+            raise ConfigError('y', f'expected {self.n_outputs} finite values, got {y.tolist()}')
+        if u.size != self.n_inputs or not math.isfinite(u @ u) and not np.isfinite(u).all():
+            raise ConfigError('u', f'expected {self.n_inputs} finite values, got {u.tolist()}')
         return self.advance(int(stamp_ns), y, u)
 
     def advance(self, stamp_ns: int, y: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -283,7 +322,9 @@ class TimeVaryingKalman(StateEstimator):
                 raise StampError(f'stamp {stamp_ns} ns is not after the previous sample '
                                  f'({self._stamp} ns)')
             ad, bd, qd = self._sampled(dt_ns)
-            self._measure(ad @ self._x + bd @ u, ad @ self._p @ ad.T + qd, y)
+            p_prior = ad @ self._p @ ad.T
+            p_prior += qd
+            self._measure(ad @ self._x + bd @ u, p_prior, y)
             self._last_interval = dt_ns
         self._stamp = stamp_ns
         return self._x
@@ -313,7 +354,7 @@ class TimeVaryingKalman(StateEstimator):
         self._x = self._prior_x.copy()
         self._p = self.initial_covariance.copy()
         self._innovation = np.zeros(self.n_outputs)
-        self._s = self._k = self._nis = None
+        self._s = self._k = self._nis = self._one = None
         self._stamp = None
         self._last_interval = 0
 
@@ -330,6 +371,7 @@ class TimeVaryingKalman(StateEstimator):
 
     def snapshot(self) -> tuple:
         """Return the running state, for :meth:`restore`."""
+        self._unpack_one()
         return (self._x.copy(), self._p.copy(), self._innovation.copy(), self._s, self._k,
                 self._nis, self._stamp, self._prior_x.copy(), self._prior_p.copy())
 
@@ -338,6 +380,7 @@ class TimeVaryingKalman(StateEstimator):
         (x, p, innovation, self._s, self._k, self._nis, self._stamp, prior_x,
          prior_p) = state
         self._x, self._p, self._innovation = x.copy(), p.copy(), innovation.copy()
+        self._one = None
         self._prior_x, self._prior_p = prior_x.copy(), prior_p.copy()
 
     def adopt(self, other: StateEstimator) -> None:
@@ -349,6 +392,7 @@ class TimeVaryingKalman(StateEstimator):
             raise ValueError('adopt: the other filter has other dimensions')
         self.model = other.model
         self.process_noise, self.measurement_noise = other.process_noise, other.measurement_noise
+        self._c_row, self._r_value = other._c_row, other._r_value
         self.initial_covariance = other.initial_covariance
         self._cache.clear()
         self.interval_resolution_ns = other.interval_resolution_ns
