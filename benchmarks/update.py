@@ -249,9 +249,9 @@ def run(smoke: bool, figures) -> Section:
     kalman4 = next((r for r in results if r['kind'] == 'kalman' and r['n'] == 4), None)
     varying = [time_varying_cost(n, smoke, rng) for n in ([4] if smoke else [4, 64])]
     section.add('Time-varying Kalman filter (`observer.time_varying: true`) on jittered '
-                'stamps (+-50 %), against filterpy\'s KalmanFilter. "Given F and Q": both get '
+                'stamps (+-50 %), against the KalmanFilter of filterpy. "Given F and Q": both get '
                 f'the sampled model of each interval made beforehand ({TV_INTERVALS} distinct '
-                'intervals; ours from its warmed cache, filterpy\'s attributes set per '
+                'intervals; ours from its warmed cache, the attributes of filterpy set per '
                 'update). "Sampling each interval": every interval new, each filter samples '
                 'it (ours exactly: zero-order hold and Van Loan; filterpy through the same '
                 'call) before its predict and update. Both use the Joseph form.', '')
