@@ -174,7 +174,9 @@ PARAMETERS = (
                   'basis) | observability (the observability matrix, one output).',
                   nodes=_OBS),
     ParameterSpec('observer.chen_seed', INTEGER, 0,
-                  'Chen: seed of the random L when observer.gain is empty (0 ... 2^63 - 1).',
+                  'Chen, several outputs, observer.gain empty: seed of the candidate choices '
+                  'of L (the best-conditioned [C; T] is kept); no effect with one output '
+                  '(0 ... 2^63 - 1).',
                   dynamic=True, nodes=_OBS, low=0, high=SEED_MAX, unit='a seed'),
     ParameterSpec('observer.error_tolerance', DOUBLE, 0.0,
                   'With observer.error_time: require ||e(T)|| <= tolerance for ||e(0)|| = 1 '
@@ -613,7 +615,7 @@ def _design_observer(params: dict, model: StateSpaceModel) -> Optional[ObserverD
         return design_kalman(model, q, r)
     count = model.n_states if kind == 'full_order' else model.n_states - model.n_outputs
     poles = _observer_poles(params, model, count)
-    if gain is not None and poles is not None and params['observer.poles']:
+    if kind != 'chen' and gain is not None and poles is not None and params['observer.poles']:
         raise ConfigError('observer.gain', 'give either observer.gain or observer.poles, '
                           'not both')
     if kind == 'chen':
