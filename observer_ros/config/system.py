@@ -386,8 +386,14 @@ def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> Syst
         if model.n_inputs == 1 and model.n_outputs == 1:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter('always')
-                controller_tf = controller_transfer_function(
-                    model, observer.realization, feedback.design.gain)
+                try:
+                    controller_tf = controller_transfer_function(
+                        model, observer.realization, feedback.design.gain)
+                except DesignError as e:
+                    # The realization comes from the poles and, when given, the gain.
+                    culprit = ('observer.poles / observer.gain' if complete.get('observer.gain')
+                               else 'observer.poles')
+                    raise ConfigError(culprit, e.reason) from e
             notes.extend(str(w.message) for w in caught)
     return System(parameters=complete, model=model, observer=observer,
                   observer_type=complete['observer.type'], initial_estimate=initial_estimate,

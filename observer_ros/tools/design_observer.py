@@ -33,7 +33,11 @@ def designed_parameters(system) -> dict:
     params = {name: value for name, value in system.parameters.items()
               if name not in PARAMETER_SPECS or value != PARAMETER_SPECS[name].default}
     observer = system.observer
-    if observer is not None and observer.kind != 'kalman':
+    # A designed Chen L belongs to its own F (orthonormal T), not to the diagonal F that a
+    # given L is used with: the poles (and observer.chen_seed) reproduce that design.
+    designed_chen = (observer is not None and observer.kind == 'chen'
+                     and not system.parameters['observer.gain'])
+    if observer is not None and observer.kind != 'kalman' and not designed_chen:
         params['observer.gain'] = np.ravel(observer.gain).tolist()
         if observer.kind != 'chen':
             params.pop('observer.poles', None)

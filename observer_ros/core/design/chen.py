@@ -19,6 +19,12 @@ Choose ``F`` ``(n-p, n-p)`` Hurwitz with the desired poles and no eigenvalue sha
 ``A``, and ``L`` ``(n-p, p)`` with ``(F, L)`` controllable; solve ``T A - F T = L C``.
 Then ``z' = F z + T B u + L y`` tracks ``T x`` with error dynamics ``F`` and
 ``x_hat = [C; T]^-1 [y; z]``.
+
+Without a given ``L`` the design picks ``F``, ``L`` and ``T`` together so that ``T`` has
+orthonormal rows (:func:`orthonormal_chen`); the seed notes' recipe, a diagonal ``F`` and a
+random ``L`` (:func:`real_block_matrix`, :func:`default_chen_gain`), is what a given ``L``
+is used with. With one output both give the same observer in another basis, and the same
+observer-controller ``G_oc``, but the recipe's ``[C; T]`` is far worse conditioned.
 """
 
 from dataclasses import dataclass
@@ -40,8 +46,12 @@ MAX_CONDITION = 1e10
 #: Smallest accepted distance (relative) between an eigenvalue of F and one of A.
 MIN_SEPARATION = 1e-8
 
-#: Seed of the random ``L`` when none is given, so designs are reproducible.
+#: Seed of the random choices (``L`` of :func:`default_chen_gain`, the free part of the rows
+#: of :func:`orthonormal_chen` with several outputs), so designs are reproducible.
 DEFAULT_SEED = 0
+
+#: Constructions tried by :func:`orthonormal_chen` with several outputs (the best is kept).
+CANDIDATES = 4
 
 
 @dataclass(frozen=True)
@@ -62,7 +72,9 @@ class ChenDesign(ObserverDesign):
     condition : float
         Condition number of ``[C; T]``.
 
-    The other attributes are those of :class:`ObserverDesign`.
+    The other attributes are those of :class:`ObserverDesign`. With a given ``L``, ``f`` is
+    block diagonal (:func:`real_block_matrix`); otherwise ``f`` is lower block triangular and
+    ``t`` has orthonormal rows (:func:`orthonormal_chen`).
 
     Examples
     --------
@@ -149,6 +161,32 @@ def default_chen_gain(f: np.ndarray, n_outputs: int, seed: int = DEFAULT_SEED) -
                       'another seed', parameter='seed')
 
 
+def _require_separated(a: np.ndarray, f: np.ndarray) -> None:
+    eig_a = np.linalg.eigvals(a)
+    eig_f = np.linalg.eigvals(f)
+    gaps = np.abs(eig_f[:, None] - eig_a[None, :]) / np.maximum(1.0, np.abs(eig_a))[None, :]
+    if gaps.size and gaps.min() < MIN_SEPARATION:
+        shared = eig_f[np.argwhere(gaps < MIN_SEPARATION)[:, 0]]
+        raise DesignError(
+            f'Chen observer poles {format_modes(shared)} coincide with eigenvalues of A; the '
+            f'Sylvester equation T A - F T = L C has no unique solution', parameter='poles')
+
+
+def _checked_inverse(a, c, f, gain, t):
+    """``([C; T]^-1, condition, residual)``, refusing an ill-conditioned ``[C; T]``."""
+    stacked = np.vstack([c, t])
+    condition = float(np.linalg.cond(stacked))
+    if not np.isfinite(condition) or condition > MAX_CONDITION:
+        raise DesignError(
+            f'[C; T] is ill-conditioned (condition number {condition:.3g} > '
+            f'{MAX_CONDITION:.0g}): x_hat = [C; T]^-1 [y; z] would amplify errors; choose '
+            f'another L or poles')
+    residual = float(np.linalg.norm(t @ a - f @ t - gain @ c) / max(
+        1.0, np.linalg.norm(t) * np.linalg.norm(a) + np.linalg.norm(f) * np.linalg.norm(t)
+        + np.linalg.norm(gain @ c)))
+    return np.linalg.inv(stacked), condition, residual
+
+
 def solve_chen(a: np.ndarray, c: np.ndarray, f: np.ndarray, gain: np.ndarray):
     """
     Solve ``T A - F T = L C`` and return ``(T, [C; T]^-1, condition, residual)``.
@@ -161,14 +199,7 @@ def solve_chen(a: np.ndarray, c: np.ndarray, f: np.ndarray, gain: np.ndarray):
         ill-conditioned.
 
     """
-    eig_a = np.linalg.eigvals(a)
-    eig_f = np.linalg.eigvals(f)
-    gaps = np.abs(eig_f[:, None] - eig_a[None, :]) / np.maximum(1.0, np.abs(eig_a))[None, :]
-    if gaps.size and gaps.min() < MIN_SEPARATION:
-        shared = eig_f[np.argwhere(gaps < MIN_SEPARATION)[:, 0]]
-        raise DesignError(
-            f'Chen observer poles {format_modes(shared)} coincide with eigenvalues of A; '
-            f'the Sylvester equation T A - F T = L C has no unique solution', parameter='poles')
+    _require_separated(a, f)
     if pbh_lost_modes(f.T, gain.T):
         raise DesignError(
             '(F, L) is not controllable, so [C; T] would be singular; choose another L',
@@ -177,16 +208,134 @@ def solve_chen(a: np.ndarray, c: np.ndarray, f: np.ndarray, gain: np.ndarray):
         t = scipy.linalg.solve_sylvester(-f, a, gain @ c)
     except (np.linalg.LinAlgError, ValueError) as e:
         raise DesignError(f'the Sylvester equation T A - F T = L C failed: {e}') from e
-    stacked = np.vstack([c, t])
-    condition = float(np.linalg.cond(stacked))
-    if not np.isfinite(condition) or condition > MAX_CONDITION:
-        raise DesignError(
-            f'[C; T] is ill-conditioned (condition number {condition:.3g} > '
-            f'{MAX_CONDITION:.0g}): x_hat = [C; T]^-1 [y; z] would amplify errors; choose '
-            f'another L or poles')
-    residual = float(np.linalg.norm(t @ a - f @ t - gain @ c) / max(
-        1.0, np.linalg.norm(t) * np.linalg.norm(a) + np.linalg.norm(gain @ c)))
-    return t, np.linalg.inv(stacked), condition, residual
+    inverse, condition, residual = _checked_inverse(a, c, f, gain, t)
+    return t, inverse, condition, residual
+
+
+def _pole_groups(poles: np.ndarray) -> list:
+    """One entry per real pole and per conjugate pair (the member with positive imag)."""
+    return [pole for pole in sort_poles(clean_poles(poles)) if pole.imag >= 0]
+
+
+def orthonormal_chen(a: np.ndarray, c: np.ndarray, poles, seed: int = DEFAULT_SEED):
+    """
+    Solve ``T A - F T = L C`` for ``F``, ``L`` and a ``T`` with orthonormal rows.
+
+    Chen's ``F`` and ``L`` are free up to ``F`` having the wanted eigenvalues and ``(F, L)``
+    being controllable; with one output every choice is the same observer in another basis
+    (``F -> S F S^-1``, ``L -> S L``, ``T -> S T``), so the observer-controller does not
+    depend on it, but the numerics do: a diagonal ``F`` with a random ``L`` gives rows
+    ``t_i ~ C (A - mu_i I)^-1`` that are nearly parallel for clustered poles, and
+    ``cond([C; T])`` reaches 1e8 at ten states. Here the rows are built one pole at a time
+    (in the spirit of the orthogonal Sylvester-observer algorithms): row ``i`` solves
+    ``t_i (A - mu_i I) = l_i C + sum_{j<i} f_ij t_j`` with the coefficients chosen so that
+    ``t_i`` is orthogonal to the rows before it, and is then normalised. ``F`` comes out
+    lower (block) triangular with the poles on its diagonal (2 x 2 blocks for conjugate
+    pairs), ``T`` with orthonormal rows, so ``[C; T]`` is as well conditioned as the angle
+    between ``C`` and the observer's subspace allows.
+
+    Parameters
+    ----------
+    a : numpy.ndarray, shape (n, n)
+    c : numpy.ndarray, shape (p, n)
+    poles : array_like of complex, shape (n - p,)
+        Eigenvalues of ``F``, conjugate pairs complete; none an eigenvalue of ``a``.
+    seed : int
+        With several outputs each row leaves a ``p``-dimensional choice: ``CANDIDATES``
+        constructions draw it from a generator seeded with ``seed`` and the one with the
+        smallest ``cond([C; T])`` is kept. With one output there is no choice (the rows are
+        unique up to sign) and the seed changes nothing.
+
+    Returns
+    -------
+    f : numpy.ndarray, shape (n - p, n - p)
+    gain : numpy.ndarray, shape (n - p, p)
+        ``L``.
+    t : numpy.ndarray, shape (n - p, n)
+
+    References
+    ----------
+    Orthogonal algorithms for the Sylvester-observer equation: P. Van Dooren, Systems &
+    Control Letters 4 (1984); B. N. Datta and Y. Saad (1991), an Arnoldi method.
+
+    """
+    rng = np.random.default_rng(seed)
+    schur = scipy.linalg.schur(np.asarray(a, dtype=complex), output='complex')
+    best, best_condition = None, np.inf
+    for _ in range(1 if c.shape[0] == 1 else CANDIDATES):
+        candidate = _orthonormal_rows(schur, c, poles, rng)
+        condition = np.linalg.cond(np.vstack([c, candidate[2]]))
+        if best is None or condition < best_condition:
+            best, best_condition = candidate, condition
+    return best
+
+
+def _orthonormal_rows(schur_form, c, poles, rng):
+    """
+    One construction of :func:`orthonormal_chen` from ``A = U S U^H``.
+
+    The rows are kept in Schur coordinates too (``t U``; ``U`` is unitary, so inner products
+    are the same), which makes each pole one triangular solve.
+    """
+    schur, unitary = schur_form
+    n_states, n_outputs = schur.shape[0], c.shape[0]
+    n_reduced = n_states - n_outputs
+    lower = np.ascontiguousarray(schur.T)
+    identity = np.eye(n_states)
+    f = np.zeros((n_reduced, n_reduced))
+    gain = np.zeros((n_reduced, n_outputs))
+    t = np.zeros((n_reduced, n_states))
+    # [C; T] U, filled as the rows are built.
+    basis = np.zeros((n_outputs + n_reduced, n_states), dtype=complex)
+    basis[:n_outputs] = c @ unitary
+    done = 0
+    for pole in _pole_groups(poles):
+        rows = n_outputs + done
+        # w = [C; T] (A - pole I)^-1 U, from w (S - pole I) = [C; T] U.
+        w = scipy.linalg.solve_triangular(lower - pole * identity, basis[:rows].T,
+                                          lower=True, check_finite=False).T
+        norms = np.maximum(np.linalg.norm(w, axis=1), 1e-300)
+        w = w / norms[:, None]
+        # Combinations v with (v w) orthogonal to the rows already built: the left null
+        # space of M = w (T U)^H, of dimension p (v M = 0 for the conjugated trailing
+        # columns of U_M in M = U_M S V^H). For a real pole M is real, and so is v.
+        if done:
+            product = w @ basis[n_outputs:rows].conj().T
+            if pole.imag == 0:
+                product = product.real
+            null = np.linalg.svd(product)[0][:, done:].conj()
+        else:
+            null = np.eye(rows)
+        mix = np.ones(1) if n_outputs == 1 else rng.standard_normal(n_outputs)
+        v = null @ mix
+        row = (v @ w) @ unitary.conj().T
+        v = v / norms
+        if pole.imag == 0:
+            row = row.real
+            size = np.linalg.norm(row)
+            t[done] = row / size
+            basis[rows] = t[done] @ unitary
+            gain[done] = v[:n_outputs] / size
+            f[done, :done] = v[n_outputs:] / size
+            f[done, done] = pole.real
+            done += 1
+            continue
+        # Conjugate pair sigma + j omega: the rows x = [Re; Im] of row satisfy
+        # x A - [[sigma, -omega], [omega, sigma]] x = [Re; Im] of (v basis); with x = R^T Q
+        # (Q orthonormal rows) the block and the coefficients change basis by R^-T.
+        x = np.vstack([row.real, row.imag])
+        coefficients = np.vstack([v.real, v.imag])
+        block = np.array([[pole.real, -pole.imag], [pole.imag, pole.real]])
+        q, r = np.linalg.qr(x.T)
+        to_q = np.linalg.inv(r.T)
+        coefficients = to_q @ coefficients
+        t[done:done + 2] = q.T
+        basis[rows:rows + 2] = q.T @ unitary
+        gain[done:done + 2] = coefficients[:, :n_outputs]
+        f[done:done + 2, :done] = coefficients[:, n_outputs:]
+        f[done:done + 2, done:done + 2] = to_q @ block @ r.T
+        done += 2
+    return f, gain, t
 
 
 def design_chen(model: StateSpaceModel, poles, gain=None,
@@ -200,9 +349,12 @@ def design_chen(model: StateSpaceModel, poles, gain=None,
     poles : array_like of complex, shape (n - p,)
         Eigenvalues of ``F``.
     gain : array_like, shape (n - p, p) or flat, optional
-        ``L``; a reproducible random one (``seed``) when omitted.
+        ``L``, used with the block-diagonal ``F`` of :func:`real_block_matrix`. When
+        omitted, ``F``, ``L`` and ``T`` come from :func:`orthonormal_chen` (``T`` with
+        orthonormal rows), chosen for the conditioning of ``[C; T]``.
     seed : int
-        Seed of the random ``L``.
+        With several outputs, seeds the candidate choices of :func:`orthonormal_chen`; with
+        one output (or a given ``L``) it changes nothing.
 
     Returns
     -------
@@ -232,7 +384,7 @@ def design_chen(model: StateSpaceModel, poles, gain=None,
 
     References
     ----------
-    C.-T. Chen, Linear System Theory and Design, 3rd ed., section 8.4.
+    C.-T. Chen, Linear System Theory and Design, 3rd ed., section 8.4; :func:`orthonormal_chen`.
 
     """
     n_states, n_outputs = model.n_states, model.n_outputs
@@ -248,14 +400,23 @@ def design_chen(model: StateSpaceModel, poles, gain=None,
             f'expected {n_reduced} poles, got {poles.size}')
     require_stable_poles(poles, model.is_discrete, 'poles')
     require_observable(model.a, model.c)
-    f = real_block_matrix(poles)
     if gain is None:
-        gain = default_chen_gain(f, n_outputs, seed)
-        method = f'sylvester (random L, seed {seed})'
+        _require_separated(model.a, np.diag(poles))
+        # (F, L) is controllable by construction: a left eigenvector w of F with w L = 0
+        # would make w T a left eigenvector of A for an eigenvalue of F, and T has full rank.
+        f, gain, t = orthonormal_chen(model.a, model.c, poles, seed)
+        if not (np.all(np.isfinite(t)) and np.all(np.isfinite(f)) and np.all(np.isfinite(gain))):
+            raise DesignError('the Sylvester equation T A - F T = L C has no solution with '
+                              'orthonormal rows for these poles; give the gain L',
+                              parameter='poles')
+        inverse, condition, residual = _checked_inverse(model.a, model.c, f, gain, t)
+        method = ('sylvester (orthonormal T)' if n_outputs == 1 else
+                  f'sylvester (orthonormal T, seed {seed})')
     else:
+        f = real_block_matrix(poles)
         gain = matrix_from_flat('gain', np.ravel(gain), n_reduced, n_outputs)
         method = 'sylvester (given L)'
-    t, inverse, condition, residual = solve_chen(model.a, model.c, f, gain)
+        t, inverse, condition, residual = solve_chen(model.a, model.c, f, gain)
     pole_residual, achieved = placement_residual(f, poles)
     residual = max(residual, pole_residual)
     realization = ObserverRealization(

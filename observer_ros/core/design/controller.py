@@ -24,17 +24,39 @@ import warnings
 
 import numpy as np
 import scipy.linalg
-import scipy.signal
 
 from observer_ros.core.analysis import format_modes
 from observer_ros.core.design.common import ObserverRealization
 from observer_ros.core.errors import DesignError
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.placement import sort_poles
-from observer_ros.core.poles import is_stable
+from observer_ros.core.poles import clean_poles, is_stable
 
 #: Leading numerator coefficients below this (relative to the largest) are dropped.
 COEFFICIENT_RTOL = 1e-10
+
+#: A Markov parameter below this (relative to ``|c| |a|^(k-1) |b|``) counts as zero.
+MARKOV_RTOL = 1e-12
+
+
+#: G_oc and the Diophantine controller of the same closed loop must agree this closely
+#: (largest relative difference of their frequency responses, see
+#: :func:`response_disagreement`); beyond it :func:`controller_transfer_function` warns.
+AGREEMENT_RTOL = 1e-8
+
+#: Beyond this disagreement :func:`controller_transfer_function` refuses the design.
+REFUSAL_RTOL = 1e-5
+
+#: Points of the frequency grid of :func:`response_disagreement`.
+GRID_POINTS = 200
+
+#: Responses below this fraction of the largest one on the grid count as that fraction.
+RESPONSE_FLOOR = 1e-9
+
+#: The Diophantine reference is taken to be accurate to this many times ``eps`` times the
+#: condition number of its (scaled) Sylvester matrix; a disagreement within that is not
+#: held against G_oc (it warns, but does not refuse).
+REFERENCE_SLACK = 10.0
 
 
 class UnstableControllerWarning(UserWarning):
@@ -59,6 +81,10 @@ class UnstableControllerWarning(UserWarning):
     ('UnstableControllerWarning', '(9.1 s^2 + 73.5 s + 125) / (s^2 + 17 s - 30)')
 
     """
+
+
+class ControllerMismatchWarning(UserWarning):
+    """G_oc and the Diophantine solution disagree (or could not be compared)."""
 
 
 @dataclass(frozen=True)
@@ -203,29 +229,78 @@ def controller_state_space(realization: ObserverRealization, feedback_gain: np.n
     return a_c, b_c, c_c, d_c
 
 
-def _numerator(a, b, c, d, den) -> np.ndarray:
-    """
-    Numerator of ``c (sI - a)^-1 b + d`` with denominator ``den``, by interpolation.
+def _balanced(a, b, c):
+    """Diagonal similarity that balances ``a`` (LAPACK's ``gebal``), applied to ``b`` and ``c``."""
+    if a.size == 0:
+        return a, b, c
+    _, (scale, _) = scipy.linalg.matrix_balance(a, permute=False, separate=True)
+    return a * scale[None, :] / scale[:, None], b / scale[:, None], c * scale[None, :]
 
-    ``N(s) = G(s) den(s)`` is sampled at ``order + 1`` points on a circle through the poles'
-    magnitude and its coefficients read off with one FFT. Unlike ``ss2tf`` (the roots of
-    ``a - b c``), this stays accurate for the ill-conditioned bases that Chen's and the
-    reduced-order designs produce: each sample is a well-posed linear solve.
+
+def siso_zpk(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray):
     """
+    Zeros, poles and gain of ``c (sI - a)^-1 b + d`` (one input, one output).
+
+    Each piece comes from a backward-stable eigenvalue problem on a balanced realization: the
+    poles are ``eig(a)``, the zeros the finite generalized eigenvalues of the Rosenbrock pencil
+    ``[[a, b], [c, d]] - s [[I, 0], [0, 0]]`` (QZ), and the gain the first Markov parameter
+    (``d``, ``c b``, ``c a b``...) that is not negligible. Unlike coefficients read off
+    samples of ``G(s) den(s)``, none of this loses accuracy when the poles and zeros spread
+    over decades or the realization is badly scaled.
+
+    Parameters
+    ----------
+    a : numpy.ndarray, shape (n, n)
+    b : numpy.ndarray, shape (n, 1)
+    c : numpy.ndarray, shape (1, n)
+    d : numpy.ndarray, shape (1, 1)
+
+    Returns
+    -------
+    zeros : numpy.ndarray of complex, shape (n - r,)
+        ``r`` is the relative degree.
+    poles : numpy.ndarray of complex, shape (n,)
+    gain : float
+        ``G(s) = gain * prod(s - zeros) / prod(s - poles)``; 0 for ``G = 0``.
+
+    """
+    a, b, c = _balanced(np.asarray(a, dtype=float), np.asarray(b, dtype=float),
+                        np.asarray(c, dtype=float))
+    d = float(np.ravel(d)[0])
     order = a.shape[0]
-    if order == 0:
-        return np.atleast_1d(d[0, 0])
-    magnitudes = np.abs(np.linalg.eigvals(a))
-    magnitudes = magnitudes[magnitudes > 0]
-    radius = float(np.exp(np.log(magnitudes).mean())) if magnitudes.size else 1.0
-    count = order + 1
-    points = radius * np.exp(2j * np.pi * np.arange(count) / count)
-    identity = np.eye(order)
-    values = np.array([
-        (c @ np.linalg.solve(point * identity - a, b) + d)[0, 0] * np.polyval(den, point)
-        for point in points])
-    ascending = (np.fft.fft(values) / count).real / radius ** np.arange(count)
-    return ascending[::-1]
+    poles = clean_poles(np.linalg.eigvals(a)) if order else np.array([], dtype=complex)
+    # Relative degree and high-frequency gain from the Markov parameters d, c b, c a b, ...
+    norm_a = max(np.linalg.norm(a, 2), 1e-300) if order else 1.0
+    scale = max(abs(d), np.linalg.norm(c) * np.linalg.norm(b) if order else 0.0, 1e-300)
+    markov, vector, degree = d, b, 0
+    while abs(markov) <= MARKOV_RTOL * scale * (norm_a ** max(degree - 1, 0)
+                                                if degree else 1.0):
+        if degree == order:
+            return np.array([], dtype=complex), poles, 0.0
+        markov = float((c @ vector)[0, 0])
+        vector = a @ vector
+        degree += 1
+        scale = max(scale, abs(markov))
+    count = order - degree
+    if count == 0:
+        return np.array([], dtype=complex), poles, markov
+    pencil = np.block([[a, b], [c, np.array([[d]])]])
+    mass = np.zeros((order + 1, order + 1))
+    mass[:order, :order] = np.eye(order)
+    alpha, beta = scipy.linalg.eig(pencil, mass, right=False, homogeneous_eigvals=True)
+    finiteness = np.abs(beta) / np.hypot(np.abs(alpha), np.abs(beta))
+    chosen = np.argsort(-finiteness, kind='stable')[:count]
+    zeros = clean_poles(alpha[chosen] / beta[chosen])
+    return zeros, poles, markov
+
+
+def _from_zpk(zeros, poles, gain, discrete) -> ControllerTransferFunction:
+    zeros, poles = sort_poles(zeros), sort_poles(poles)
+    num = gain * np.real(np.poly(zeros)) if zeros.size else np.array([gain])
+    den = np.real(np.poly(poles)) if poles.size else np.ones(1)
+    return ControllerTransferFunction(num=np.atleast_1d(num), den=np.atleast_1d(den),
+                                      zeros=zeros if gain else np.array([], dtype=complex),
+                                      poles=poles, gain=float(gain), discrete=discrete)
 
 
 def _transfer_function(num, den, discrete) -> ControllerTransferFunction:
@@ -242,6 +317,116 @@ def _transfer_function(num, den, discrete) -> ControllerTransferFunction:
         poles=sort_poles(np.roots(den)), gain=float(num[0]), discrete=discrete)
 
 
+def _evaluate_zpk(tf: ControllerTransferFunction, points: np.ndarray) -> np.ndarray:
+    value = np.full(points.shape, complex(tf.gain))
+    for zero in tf.zeros:
+        value = value * (points - zero)
+    for pole in tf.poles:
+        value = value / (points - pole)
+    return value
+
+
+def frequency_grid(first: ControllerTransferFunction,
+                   second: ControllerTransferFunction) -> np.ndarray:
+    """
+    Points on ``s = j w`` (``z = exp(j theta)``) around both systems' dynamics.
+
+    ``GRID_POINTS`` log-spaced frequencies from a tenth of the slowest to ten times the
+    fastest pole or zero magnitude (for a discrete system the magnitude of ``log z``, up to
+    ``theta = pi``), plus points 1 % and 3 % either side of each pole's and zero's magnitude,
+    where a lightly damped root's peak or notch lies (not on it: a root on the axis would
+    make the response infinite or zero there).
+    """
+    roots = np.concatenate([first.zeros, first.poles, second.zeros, second.poles])
+    if first.discrete:
+        roots = np.log(roots[np.abs(roots) > 0].astype(complex))
+    magnitudes = np.abs(roots)
+    magnitudes = magnitudes[magnitudes > 0]
+    low = magnitudes.min() / 10.0 if magnitudes.size else 1e-2
+    high = magnitudes.max() * 10.0 if magnitudes.size else 1e2
+    if first.discrete:
+        low, high = min(low, np.pi / 10.0), np.pi
+    frequencies = np.concatenate([np.logspace(np.log10(low), np.log10(high), GRID_POINTS),
+                                  np.outer(magnitudes, [0.97, 0.99, 1.01, 1.03]).ravel()])
+    frequencies = np.unique(frequencies[(frequencies >= low) & (frequencies <= high)])
+    return np.exp(1j * frequencies) if first.discrete else 1j * frequencies
+
+
+def response_disagreement(first: ControllerTransferFunction,
+                          second: ControllerTransferFunction) -> float:
+    """
+    Largest relative difference of two frequency responses on :func:`frequency_grid`.
+
+    ``max |G1 - G2| / max(|G2|, RESPONSE_FLOOR max |G2|)`` over the grid; the floor keeps a
+    zero close to the imaginary axis (unit circle) from turning rounding into a large
+    relative error. ``first`` is evaluated in its zero-pole-gain form (how
+    :func:`controller_transfer_function` computes it), ``second`` from its polynomials (how
+    the Diophantine equation gives it): the roots of clustered polynomial coefficients are
+    less accurate than the coefficients.
+    """
+    points = frequency_grid(first, second)
+    with np.errstate(all='ignore'):
+        return _relative_difference(
+            _evaluate_zpk(first, points),
+            np.polyval(second.num, points) / np.polyval(second.den, points))
+
+
+def _relative_difference(one: np.ndarray, two: np.ndarray) -> float:
+    finite = np.isfinite(one) & np.isfinite(two)
+    if not np.any(finite):
+        return np.inf
+    one, two = one[finite], two[finite]
+    with np.errstate(all='ignore'):
+        reference = np.abs(two)
+        floor = RESPONSE_FLOOR * np.max(reference)
+        ratio = np.abs(one - two) / np.maximum(np.maximum(reference, floor), 1e-300)
+    return float(np.max(ratio)) if np.all(np.isfinite(ratio)) else np.inf
+
+
+def _cross_check(model, realization, feedback_gain, result) -> None:
+    """Compare ``result`` with the Diophantine controller of the same closed loop."""
+    order, n_states = realization.a.shape[0], model.n_states
+    strictly_proper = not np.any(realization.d_y)
+    if not (order == n_states - 1 or (order == n_states and strictly_proper)):
+        return
+    closed = np.concatenate([np.linalg.eigvals(model.a - model.b @ feedback_gain),
+                             np.linalg.eigvals(realization.a) if order else np.array([])])
+    try:
+        r_poly, s_poly, shift, sigma, condition = _diophantine_scaled(model, closed)
+    except DesignError as e:
+        warnings.warn(f'G_oc could not be cross-checked with the Diophantine equation ({e})',
+                      ControllerMismatchWarning, stacklevel=3)
+        return
+    points = frequency_grid(result, result)
+    scaled = (points - shift) / sigma
+    with np.errstate(all='ignore'):
+        reference = np.polyval(s_poly, scaled) / np.polyval(r_poly, scaled)
+        # Both forms of the result: zero-pole-gain and the printed polynomials.
+        disagreement = max(
+            _relative_difference(_evaluate_zpk(result, points), reference),
+            _relative_difference(np.polyval(result.num, points) / np.polyval(result.den, points),
+                                 reference))
+    if disagreement <= AGREEMENT_RTOL:
+        return
+    reference_error = REFERENCE_SLACK * np.finfo(float).eps * condition
+    text = (f'G_oc from the observer realization and the Diophantine solution of '
+            f'A R + B S = A_cl for the same closed-loop poles disagree by {disagreement:.2g} '
+            f'relative (frequency response), more than {AGREEMENT_RTOL:.0e}')
+    if disagreement > max(REFUSAL_RTOL, reference_error):
+        raise DesignError(
+            f'{text} and more than {REFUSAL_RTOL:.0e}, while the Diophantine solution is good '
+            f'to about {reference_error:.1g}: the observer realization is numerically '
+            f'unreliable (G_oc would print wrong digits); choose observer poles farther from '
+            f'each other and from the eigenvalues of A, or another observer gain',
+            parameter='realization')
+    if disagreement > reference_error:
+        blame = 'G_oc and the closed loop are that inaccurate'
+    else:
+        blame = (f'the Diophantine equation is ill-conditioned (good to about '
+                 f'{reference_error:.1g}), so either may be that inaccurate')
+    warnings.warn(f'{text}: {blame}', ControllerMismatchWarning, stacklevel=3)
+
+
 def controller_transfer_function(model: StateSpaceModel, realization: ObserverRealization,
                                  feedback_gain: np.ndarray) -> ControllerTransferFunction:
     """
@@ -251,6 +436,16 @@ def controller_transfer_function(model: StateSpaceModel, realization: ObserverRe
     :class:`UnstableControllerWarning` when the controller itself is unstable (legal, as in
     the seed example ``(9.1 s^2 + 73.5 s + 125) / (s^2 + 17 s - 30)``, but the loop must
     then never be opened).
+
+    ``num``, ``den``, zeros, poles and gain come from eigenvalue problems on the balanced
+    observer-controller (:func:`siso_zpk`). The result is then checked against the
+    Diophantine solution of the same closed loop, ``A R + B S = det(sI - A + B K)
+    det(sI - A_o)`` with ``A_o`` the observer's state matrix (its achieved poles, so that a
+    placement error within tolerance is not counted): for one output the controller of
+    order ``n - 1`` (reduced-order, Chen) or strictly proper of order ``n`` (full order,
+    Kalman) is unique, so the two must agree. A disagreement beyond ``AGREEMENT_RTOL`` warns
+    with :class:`ControllerMismatchWarning` (as does a closed loop the Diophantine equation
+    cannot solve); beyond ``REFUSAL_RTOL`` the design is refused.
 
     Parameters
     ----------
@@ -268,7 +463,8 @@ def controller_transfer_function(model: StateSpaceModel, realization: ObserverRe
     Raises
     ------
     DesignError
-        Naming ``model`` when the plant is not single-input single-output.
+        Naming ``model`` when the plant is not single-input single-output; when ``G_oc``
+        and the Diophantine solution disagree by more than ``REFUSAL_RTOL``.
 
     Examples
     --------
@@ -285,9 +481,8 @@ def controller_transfer_function(model: StateSpaceModel, realization: ObserverRe
             f'G_oc is computed for single-input single-output plants; this one has '
             f'{model.n_inputs} inputs and {model.n_outputs} outputs', parameter='model')
     a_c, b_c, c_c, d_c = controller_state_space(realization, feedback_gain)
-    den = np.poly(a_c) if a_c.size else np.ones(1)
-    num = _numerator(a_c, b_c, -c_c, -d_c, den)
-    result = _transfer_function(num, den, model.is_discrete)
+    result = _from_zpk(*siso_zpk(a_c, b_c, -c_c, -d_c), model.is_discrete)
+    _cross_check(model, realization, feedback_gain, result)
     if result.unstable:
         warnings.warn(
             f'the observer-controller is unstable on its own (poles '
@@ -335,6 +530,12 @@ def solve_diophantine(a_poly, b_poly, closed_loop_poly):
     ([1.0, 21.5, 153.5], [409.0, 360.0])
 
     """
+    r_poly, s_poly, _ = _solve_diophantine(a_poly, b_poly, closed_loop_poly)
+    return r_poly, s_poly
+
+
+def _solve_diophantine(a_poly, b_poly, closed_loop_poly):
+    """:func:`solve_diophantine` plus the condition number of its (scaled) Sylvester matrix."""
     a_poly = np.trim_zeros(np.asarray(a_poly, dtype=float), 'f')
     b_poly = np.trim_zeros(np.asarray(b_poly, dtype=float), 'f')
     acl = np.trim_zeros(np.asarray(closed_loop_poly, dtype=float), 'f')
@@ -345,21 +546,50 @@ def solve_diophantine(a_poly, b_poly, closed_loop_poly):
         raise DesignError(
             f'the closed-loop polynomial has degree {acl.size - 1}; a proper controller for a '
             f'plant of degree {n} needs at least {2 * n - 1}', parameter='closed_loop_poly')
+    # Frequency scaling s = sigma s' (sigma: the geometric mean of the closed-loop root
+    # magnitudes) balances the coefficients; the columns are then equilibrated, and one step
+    # of iterative refinement recovers what the solve lost.
+    sigma = 1.0
+    if acl[-1] != 0.0 and acl.size > 1:
+        sigma = float(abs(acl[-1] / acl[0]) ** (1.0 / (acl.size - 1)))
+    a_scaled = a_poly / sigma ** np.arange(n + 1)
+    b_scaled = np.concatenate([np.zeros(n + 1 - b_poly.size), b_poly]) / sigma ** np.arange(
+        n + 1)
+    acl_scaled = acl / sigma ** np.arange(acl.size)
     unknowns = deg_r + 1 + deg_s + 1
     matrix = np.zeros((acl.size, unknowns))
     for j in range(deg_r + 1):  # column j multiplies s^(deg_r - j) in R
-        matrix[j:j + a_poly.size, j] = a_poly
-    b_padded = np.concatenate([np.zeros(n + 1 - b_poly.size), b_poly])
+        matrix[j:j + n + 1, j] = a_scaled
     for j in range(deg_s + 1):
         shift = acl.size - (deg_s - j) - (n + 1)
-        matrix[shift:shift + n + 1, deg_r + 1 + j] = b_padded
-    condition = np.linalg.cond(matrix)
+        matrix[shift:shift + n + 1, deg_r + 1 + j] = b_scaled
+    columns = np.linalg.norm(matrix, axis=0)
+    columns[columns == 0.0] = 1.0
+    equilibrated = matrix / columns
+    condition = np.linalg.cond(equilibrated)
     if not np.isfinite(condition) or condition > 1e13:
         raise DesignError(
             'the Diophantine equation is singular: the plant numerator and denominator share '
             'a root (a pole-zero cancellation), so the closed loop cannot be assigned')
-    solution = np.linalg.solve(matrix, acl)
-    return solution[:deg_r + 1], solution[deg_r + 1:]
+    solution = np.linalg.solve(equilibrated, acl_scaled)
+    solution = solution + np.linalg.solve(equilibrated, acl_scaled - equilibrated @ solution)
+    solution = solution / columns
+    r_poly = solution[:deg_r + 1] * sigma ** np.arange(deg_r + 1)
+    s_poly = solution[deg_r + 1:] * sigma ** np.arange(deg_r - deg_s, deg_r + 1)
+    return r_poly, s_poly, float(condition)
+
+
+def plant_polynomials(model: StateSpaceModel):
+    """
+    Numerator and monic denominator of a SISO plant, highest power first.
+
+    From :func:`siso_zpk` (zeros by QZ, poles by ``eig``): ``ss2tf`` takes the numerator as
+    ``det(sI - A + B C) - det(sI - A)``, which cancels digits when ``B C`` is small next to
+    ``A``.
+    """
+    zeros, poles, gain = siso_zpk(model.a, model.b, model.c, model.d)
+    num = gain * np.real(np.poly(zeros)) if zeros.size else np.array([gain])
+    return np.atleast_1d(num), np.real(np.poly(poles))
 
 
 def diophantine_controller(model: StateSpaceModel, controller_poles,
@@ -400,11 +630,36 @@ def diophantine_controller(model: StateSpaceModel, controller_poles,
     if model.n_inputs != 1 or model.n_outputs != 1:
         raise DesignError('the Diophantine design is for single-input single-output plants',
                           parameter='model')
-    num, den = scipy.signal.ss2tf(model.a, model.b, model.c, model.d)
-    closed = np.real(np.poly(np.concatenate([np.ravel(controller_poles),
-                                             np.ravel(observer_poles)])))
-    r_poly, s_poly = solve_diophantine(den, np.ravel(num), closed)
+    closed = np.concatenate([np.ravel(controller_poles), np.ravel(observer_poles)])
+    closed = np.asarray(closed, dtype=complex)
+    r_poly, s_poly, shift, sigma, _ = _diophantine_scaled(model, closed)
+    # Back from w = (s - shift) / sigma to s (z): R(s) = R_w((s - shift) / sigma).
+    to_w = np.polynomial.Polynomial([-shift / sigma, 1.0 / sigma])
+    r_poly = np.polynomial.Polynomial(r_poly[::-1])(to_w).coef[::-1]
+    s_poly = np.polynomial.Polynomial(s_poly[::-1])(to_w).coef[::-1]
     return _transfer_function(s_poly, r_poly, model.is_discrete)
+
+
+def _diophantine_scaled(model: StateSpaceModel, closed_roots: np.ndarray):
+    """
+    Solve the Diophantine equation in ``w = (s - shift) / sigma``; ``(R_w, S_w, shift, sigma)``.
+
+    Every polynomial is built from its roots in ``w``: ``shift`` is 1 for a discrete model
+    (whose poles crowd around ``z = 1``, where coefficients in ``z`` lose their digits) and
+    0 otherwise, ``sigma`` the geometric mean of the shifted closed-loop root magnitudes.
+    ``G_oc = S_w(w) / R_w(w)``.
+    """
+    zeros, poles, gain = siso_zpk(model.a, model.b, model.c, model.d)
+    shift = 1.0 if model.is_discrete else 0.0
+    shifted = closed_roots - shift
+    magnitudes = np.abs(shifted[np.abs(shifted) > 0])
+    sigma = float(np.exp(np.mean(np.log(magnitudes)))) if magnitudes.size else 1.0
+    den = np.real(np.poly(clean_poles((poles - shift) / sigma)))
+    num = gain * sigma ** (zeros.size - poles.size) * (
+        np.real(np.poly(clean_poles((zeros - shift) / sigma))) if zeros.size else np.ones(1))
+    closed = np.real(np.poly(clean_poles(shifted / sigma)))
+    r_poly, s_poly, condition = _solve_diophantine(den, num, closed)
+    return r_poly, s_poly, shift, sigma, condition
 
 
 def closed_loop_matrix(model: StateSpaceModel, realization: ObserverRealization,

@@ -31,7 +31,9 @@ from observer_ros.core.observers.common import POLE_ARGUMENTS, requested_poles
 SEED_MAX = 2 ** 63 - 1
 
 SEED = Argument('chen_seed', INTEGER, 0,
-                'Chen: seed of the random L when observer.gain is empty (0 ... 2^63 - 1).',
+                'Chen, several outputs, observer.gain empty: seed of the candidate choices of '
+                'L (the best-conditioned [C; T] is kept); no effect with one output '
+                '(0 ... 2^63 - 1).',
                 dynamic=True, low=0, high=SEED_MAX, unit='a seed')
 
 
