@@ -30,9 +30,30 @@ import observer_ros
 REPOSITORY = Path(__file__).resolve().parents[1]
 CONFIG_DIR = REPOSITORY / 'config'
 
+
+def _domain_id() -> int:
+    """
+    Return this test process's DDS domain: one per test run, and one per worker under -n.
+
+    ``ROS_DOMAIN_ID``, when set, is the run's first domain; otherwise a random one (or, with
+    pytest-xdist, one derived from the run's id, which every worker shares). Worker ``gwK``
+    takes the K-th domain after it, so parallel workers never hear each other.
+    """
+    given = os.environ.get('ROS_DOMAIN_ID')
+    run = os.environ.get('PYTEST_XDIST_TESTRUNUID')
+    if given:
+        base = int(given)
+    elif run:
+        base = int(run, 16) % 100 + 1
+    else:
+        base = random.SystemRandom().randint(1, 100)
+    worker = os.environ.get('PYTEST_XDIST_WORKER', 'gw0')
+    return (base - 1 + int(worker[2:])) % 100 + 1
+
+
 # One private DDS domain per test run, traffic kept on this machine. Set before any test
 # imports rclpy; subprocesses inherit it.
-os.environ.setdefault('ROS_DOMAIN_ID', str(random.SystemRandom().randint(1, 100)))
+os.environ['ROS_DOMAIN_ID'] = str(_domain_id())
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.setdefault('MPLBACKEND', 'Agg')
 
