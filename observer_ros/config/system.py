@@ -509,7 +509,12 @@ def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> Syst
                     culprit = ('observer.poles / observer.gain' if complete.get('observer.gain')
                                else 'observer.poles')
                     raise ConfigError(culprit, e.reason) from e
-            notes.extend(str(w.message) for w in caught)
+            messages = [str(w.message) for w in caught]
+            if disturbance is not None:
+                # The augmented plant's disturbance modes are uncontrollable by construction:
+                # the Diophantine cross-check does not apply to it.
+                messages = [m for m in messages if not m.startswith('G_oc could not be')]
+            notes.extend(messages)
     return System(parameters=complete, model=model, observer=observer,
                   observer_type=complete['observer.type'], initial_estimate=initial_estimate,
                   feedback=feedback, plant=plant, controller_tf=controller_tf,
