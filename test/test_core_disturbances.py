@@ -112,7 +112,7 @@ def test_reduced_order_and_chen_need_n_plus_disturbance_states_minus_p_poles():
 def test_kalman_needs_the_disturbance_noise_and_its_count():
     params = dict(MOTOR, **OBSERVERS['kalman'], **{'observer.type': 'kalman'})
     del params['observer.disturbance_noise']
-    with pytest.raises(ConfigError, match=r"^observer.disturbance_noise: expected 1 values .*"
+    with pytest.raises(ConfigError, match=r'^observer.disturbance_noise: expected 1 values .*'
                                           r"\['load'\]"):
         validate_parameters(params)
     with pytest.raises(ConfigError, match=r'^observer.disturbance_noise: expected 1 values '
@@ -173,7 +173,7 @@ def test_shipped_config_and_design_report(tmp_path, capsys):
     assert summary['observer.slowest_pole'] == pytest.approx([-10.0, 0.0], abs=1e-9)
     assert design_main([str(path)]) == 0
     out = capsys.readouterr().out
-    assert "load: constant at input effort, states load (x_hat entries 2)" in out
+    assert 'load: constant at input effort, states load (x_hat entries 2)' in out
     assert 'disturbance estimates converge like the slowest observer pole [-10]' in out
     assert 'K_d (disturbance rejection' in out
 

@@ -236,10 +236,10 @@ def _design_observer(params: dict, model: StateSpaceModel,
                           '(model.disturbances); leave it empty')
     if disturbance is not None and kind.name == 'kalman' and given.get('process_noise'):
         if not given.get('disturbance_noise'):
+            states = list(model.state_names[disturbance.plant.n_states:])
             raise ConfigError('observer.disturbance_noise', f'expected '
                               f'{disturbance.n_disturbance_states} values (the process noise '
-                              f'of the disturbance states {list(model.state_names[disturbance.plant.n_states:])}), '
-                              f'got none')
+                              f'of the disturbance states {states}), got none')
         plant_q = covariance_from_flat('observer.process_noise', given['process_noise'],
                                        disturbance.plant.n_states)
         given['process_noise'] = augmented_noise(
