@@ -171,6 +171,9 @@ def test_shipped_config_and_design_report(tmp_path, capsys):
         'states': ['load'], 'state_indices': [2], 'modes': [[0.0, 0.0]]}]
     assert summary['feedback.disturbance_gain'] == [[1.0]]
     assert summary['observer.slowest_pole'] == pytest.approx([-10.0, 0.0], abs=1e-9)
+    # The loop's poles: A - B K and the observer's; the generator mode 0 is left out.
+    closed = sorted(complex(re, im).real for re, im in summary['closed_loop_poles'])
+    assert closed == pytest.approx([-14.0, -12.0, -10.0, -4.0, -3.0], abs=1e-6)
     assert design_main([str(path)]) == 0
     out = capsys.readouterr().out
     assert 'load: constant at input effort, states load (x_hat entries 2)' in out

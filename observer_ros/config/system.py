@@ -441,6 +441,23 @@ def _check_interval_resolution(params: dict, model: StateSpaceModel) -> None:
                           f'{model.dt}) has one period; expected 0, got {resolution}')
 
 
+def _without_generator_modes(poles: np.ndarray, model: StateSpaceModel,
+                             disturbance: DisturbanceModel) -> np.ndarray:
+    """
+    Drop the disturbance generators' modes from the augmented closed-loop poles.
+
+    The generators are exogenous (nothing feeds back into them), so their modes appear in
+    the augmented closed loop unchanged; the loop of the real plant and the observer-controller
+    has the others.
+    """
+    n = disturbance.plant.n_states
+    remaining = list(np.asarray(poles, dtype=complex))
+    for mode in np.linalg.eigvals(model.a[n:, n:]):
+        if remaining:
+            remaining.pop(int(np.argmin(np.abs(np.array(remaining) - mode))))
+    return np.array(remaining)
+
+
 def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> System:
     """
     Validate a flat parameter mapping and build every design it defines.
@@ -498,6 +515,8 @@ def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> Syst
     controller_tf, cl_poles, notes = None, None, []
     if observer is not None and feedback is not None:
         cl_poles = closed_loop_poles(model, observer.realization, feedback.estimate_gain)
+        if disturbance is not None:
+            cl_poles = _without_generator_modes(cl_poles, model, disturbance)
         if model.n_inputs == 1 and model.n_outputs == 1:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter('always')
