@@ -266,3 +266,26 @@ def test_disturbance_noise_without_disturbances_and_rejection_without_a_matched_
     with pytest.raises(ConfigError, match=r'^feedback.disturbance_rejection: expected a '
                                           r'matched input disturbance'):
         validate_parameters(bias)
+
+
+def test_sinusoid_at_a_transmission_zero_is_named():
+    # y = (s^2 + 4) / ((s + 1)(s + 2)(s + 3)) u: a 2 rad/s hum at the input never reaches y.
+    model = StateSpaceModel.from_matrices(
+        [[-6, -11, -6], [1, 0, 0], [0, 1, 0]], [[1], [0], [0]], [[1, 0, 4]])
+    with pytest.raises(ConfigError, match=r"^disturbances: the sinusoid \(2 rad/s\) 'hum' is "
+                                          r'not observable: the plant has a transmission zero '
+                                          r'at s = 0\+2j, 0-2j from input u1'):
+        augment(model, ['sinusoid'], [], [], [2.0], ['hum'])
+    assert augment(model, ['sinusoid'], [], [], [3.0], ['hum']).n_disturbance_states == 2
+
+
+def test_time_varying_kalman_estimates_the_load():
+    params = dict(MOTOR, **OBSERVERS['kalman'], **{
+        'observer.type': 'kalman', 'observer.time_varying': True,
+        'observer.initial_covariance': [1e-6, 1e-6, 1.0],
+        'observer.initial_state': [0.0, 0.0, 0.0]})
+    system = validate_parameters(params)
+    with pytest.raises(ConfigError, match=r'^observer.initial_covariance: expected 3 '):
+        validate_parameters(dict(params, **{'observer.initial_covariance': [1.0, 1.0]}))
+    _, _, estimate = _run(system, 300)
+    assert estimate[-1, 2] == pytest.approx(LOAD, abs=1e-3)

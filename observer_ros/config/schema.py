@@ -139,7 +139,8 @@ OBSERVER_STREAM = (
     _spec('observer.type', STRING, 'full_order',
           ' | '.join(kind.name for kind in observer_types()) + ' (the registered observer '
           'types).', _OBS, choices=tuple(kind.name for kind in observer_types())),
-    _values('observer.initial_state', 'Initial estimate, n values. Empty (the default): the '
+    _values('observer.initial_state', 'Initial estimate, n values (with model.disturbances: '
+            'plant then disturbance states). Empty (the default): the '
             'first measurement initialises the estimate (least-norm x with C x = y; a '
             'time-varying Kalman filter updates the prior 0 with P0).', _OBS, dynamic=True,
             limit=VALUE_LIMIT),

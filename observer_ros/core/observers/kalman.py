@@ -52,7 +52,8 @@ TIME_VARYING = Argument('time_varying', BOOL, False,
                         'form) instead of the steady-state filter of each interval.')
 INITIAL_COVARIANCE = array('initial_covariance', 'Time-varying Kalman: P0, n diagonal values '
                            'or n x n row-major (default: the identity); the first measurement '
-                           'updates (initial_state, P0).', dynamic=True)
+                           'updates (initial_state, P0). n counts the disturbance states of '
+                           'model.disturbances.', dynamic=True)
 
 
 def vet(model, given):
