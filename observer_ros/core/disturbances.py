@@ -83,6 +83,14 @@ class Disturbance:
     state_names : tuple of str
         ``(name,)`` or ``(name, name_rate)``.
 
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> motor = oc.StateSpaceModel.from_flat([0, 1, 0, -2], [0, 4], [1, 0])
+    >>> (drift,) = oc.augment(motor, ['ramp'], names=['drift']).disturbances
+    >>> drift.state_names, drift.first_state, drift.matched_input, drift.describe()
+    (('drift', 'drift_rate'), 2, 0, "ramp 'drift'")
+
     """
 
     name: str
@@ -104,7 +112,7 @@ class Disturbance:
         return self.index if self.entry == 'input' else None
 
     def describe(self) -> str:
-        """Return e.g. ``constant 'load' at input torque``."""
+        """Return e.g. ``constant 'load'`` or ``sinusoid (5 rad/s) 'hum'``."""
         kind = f'sinusoid ({self.frequency:g} rad/s)' if self.kind == 'sinusoid' else self.kind
         return f'{kind} {self.name!r}'
 
@@ -121,6 +129,17 @@ class DisturbanceModel:
     disturbances : tuple of Disturbance
     augmented : StateSpaceModel
         ``n + n_d`` states (plant first), the plant's inputs and outputs.
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> motor = oc.StateSpaceModel.from_flat([0, 1, 0, -2], [0, 4], [1, 0])
+    >>> model = oc.augment(motor, ['constant', 'sinusoid'], ['input', 'input'],
+    ...                    frequencies=[5.0], names=['load', 'hum'])
+    >>> model.n_disturbance_states, model.augmented.state_names[2:]
+    (3, ('load', 'hum', 'hum_rate'))
+    >>> model.rejection_gain().tolist()
+    [[1.0, 1.0, 0.0]]
 
     """
 
