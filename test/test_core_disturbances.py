@@ -45,6 +45,7 @@ MOTOR = {'model.A': [0.0, 1.0, 0.0, -2.0], 'model.B': [0.0, 4.0], 'model.C': [1.
 OBSERVERS = {
     'full_order': {'observer.poles': ['-10', '-12', '-14']},
     'reduced_order': {'observer.poles': ['-10', '-12']},
+    'chen': {'observer.poles': ['-10', '-12']},
     'kalman': {'observer.process_noise': [0.0, 1e-4], 'observer.measurement_noise': [1e-6],
                'observer.disturbance_noise': [1.0]},
 }
