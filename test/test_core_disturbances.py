@@ -175,8 +175,13 @@ def test_shipped_config_and_design_report(tmp_path, capsys):
     # The loop's poles: A - B K and the observer's; the generator mode 0 is left out.
     closed = sorted(complex(re, im).real for re, im in summary['closed_loop_poles'])
     assert closed == pytest.approx([-14.0, -12.0, -10.0, -4.0, -3.0], abs=1e-6)
-    assert design_main([str(path)]) == 0
+    written = tmp_path / 'designed.yaml'
+    assert design_main([str(path), '--write', str(written)]) == 0
     out = capsys.readouterr().out
+    assert 'Disturbances: 1 state after the 2 plant states' in out
+    again = validate_parameters(load_parameter_file(str(written)), strict=True)
+    assert again.observer.gain.shape == (3, 1)  # the gain covers the load state
+    np.testing.assert_allclose(again.observer.gain, system.observer.gain, rtol=1e-12)
     assert 'load: constant at input effort, states load (x_hat entries 2)' in out
     assert 'disturbance estimates converge like the slowest observer pole [-10]' in out
     assert 'K_d (disturbance rejection' in out

@@ -188,7 +188,8 @@ def format_report(system: System) -> str:
                f'condition {obs.condition_number:.4g}\n')
     if system.disturbance is not None:
         n_plant = system.plant_model.n_states
-        out.append(f'Disturbances: {model.n_states - n_plant} states after the '
+        count = model.n_states - n_plant
+        out.append(f'Disturbances: {count} state{"s" if count > 1 else ""} after the '
                    f'{n_plant} plant states\n')
         for row in _disturbance_rows(system):
             frequency = f' {row["frequency"]:g} rad/s' if row['kind'] == 'sinusoid' else ''
