@@ -48,6 +48,7 @@ DOCUMENTED_MODULES = (
     'observer_ros.core.design.controller',
     'observer_ros.core.control',
     'observer_ros.core.simulation',
+    'observer_ros.core.disturbances',
     'observer_ros.core.evaluation',
     'observer_ros.core.arguments',
     'observer_ros.core.observers',

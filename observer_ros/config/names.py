@@ -30,7 +30,10 @@ from observer_ros.core.observers import observer_arguments
 _MODEL = {'A': 'model.A', 'a': 'model.A', 'B': 'model.B', 'b': 'model.B', 'C': 'model.C',
           'c': 'model.C', 'D': 'model.D', 'd': 'model.D', 'dt': 'model.dt',
           'state_names': 'model.state_names', 'input_names': 'model.input_names',
-          'output_names': 'model.output_names'}
+          'output_names': 'model.output_names',
+          **{name: f'model.{name}' for name in (
+              'disturbances', 'disturbance_entries', 'disturbance_matrix',
+              'disturbance_frequencies', 'disturbance_names')}}
 
 #: Context -> argument -> parameter. A context is the part of the schema a core call serves.
 ARGUMENT_PARAMETERS = {

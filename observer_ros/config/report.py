@@ -47,6 +47,40 @@ def _sampled_step(system: System):
     return None if design is None else design.step(system.plant.period_ns)
 
 
+def _target(system: System, disturbance) -> str:
+    plant = system.plant_model
+    if disturbance.entry == 'input':
+        return f'input {plant.input_names[disturbance.index]}'
+    if disturbance.entry == 'output':
+        return f'output {plant.output_names[disturbance.index]}'
+    return f'column {disturbance.index} of model.disturbance_matrix'
+
+
+def _disturbance_rows(system: System) -> list:
+    """Return one JSON row per disturbance: kind, entry, states and generator modes."""
+    if system.disturbance is None:
+        return []
+    rows = []
+    model = system.model
+    for disturbance in system.disturbance.disturbances:
+        block = slice(disturbance.first_state, disturbance.first_state + disturbance.n_states)
+        rows.append({'name': disturbance.name, 'kind': disturbance.kind,
+                     'entry': _target(system, disturbance),
+                     'frequency': disturbance.frequency,
+                     'states': list(disturbance.state_names),
+                     'state_indices': list(range(block.start, block.stop)),
+                     'modes': pole_pairs(np.linalg.eigvals(model.a[block, block]))})
+    return rows
+
+
+def _slowest(system: System):
+    """Return the slowest achieved observer pole (the disturbance estimates' rate)."""
+    poles = np.asarray(system.observer.achieved_poles, dtype=complex)
+    if system.model.is_discrete:
+        return poles[np.argmax(np.abs(poles))]
+    return poles[np.argmax(poles.real)]
+
+
 def _type_items(system: System) -> tuple:
     """Return the observer type's own report fields (``ReportItem`` of each)."""
     return tuple(system.kind.report(system.observer))
@@ -79,6 +113,9 @@ def design_summary(system: System) -> dict:
         },
         'notes': list(system.notes),
     }
+    if system.disturbance is not None:
+        summary['model']['plant_states'] = system.plant_model.n_states
+        summary['disturbances'] = _disturbance_rows(system)
     observer = system.observer
     if observer is not None:
         summary['observer.type'] = observer.kind
@@ -88,6 +125,8 @@ def design_summary(system: System) -> dict:
         summary['observer.method'] = observer.method
         summary['observer.residual'] = observer.residual
         summary['observer.order'] = observer.order
+        if system.disturbance is not None:
+            summary['observer.slowest_pole'] = pole_pairs([_slowest(system)])[0]
         for item in _type_items(system):
             summary[f'observer.{item.key}'] = (item.value if np.ndim(item.value) == 0
                                                else _rows(item.value))
@@ -106,6 +145,8 @@ def design_summary(system: System) -> dict:
         summary['feedback.residual'] = feedback.design.residual
         summary['feedback.reference_gain'] = (None if feedback.reference_gain is None
                                               else _rows(feedback.reference_gain))
+        if feedback.disturbance_gain is not None:
+            summary['feedback.disturbance_gain'] = _rows(feedback.disturbance_gain)
     if system.closed_loop_poles is not None:
         summary['closed_loop_poles'] = pole_pairs(system.closed_loop_poles)
     tf = system.controller_tf
@@ -145,6 +186,18 @@ def format_report(system: System) -> str:
     obs = observability(model.a, model.c)
     out.append(f'Observability matrix: rank {obs.rank} of {obs.n_states}, '
                f'condition {obs.condition_number:.4g}\n')
+    if system.disturbance is not None:
+        n_plant = system.plant_model.n_states
+        count = model.n_states - n_plant
+        out.append(f'Disturbances: {count} state{"s" if count > 1 else ""} after the '
+                   f'{n_plant} plant states\n')
+        for row in _disturbance_rows(system):
+            frequency = f' {row["frequency"]:g} rad/s' if row['kind'] == 'sinusoid' else ''
+            modes = _poles_text(complex(*pair) for pair in row['modes'])
+            out.append(f'  {row["name"]}: {row["kind"]}{frequency} at {row["entry"]}, '
+                       f'states {", ".join(row["states"])} (x_hat entries '
+                       f'{", ".join(str(i) for i in row["state_indices"])}), generator '
+                       f'modes {modes}\n')
     observer = system.observer
     if observer is not None:
         out.append(f'\nObserver: {observer.kind} (order {observer.order}), '
@@ -153,6 +206,9 @@ def format_report(system: System) -> str:
         out.append(f'requested poles = {_poles_text(observer.requested_poles)}\n')
         out.append(f'achieved poles  = {_poles_text(observer.achieved_poles)}\n')
         out.append(f'residual = {observer.residual:.3g}\n')
+        if system.disturbance is not None:
+            out.append(f'disturbance estimates converge like the slowest observer pole '
+                       f'{_poles_text([_slowest(system)])}\n')
         for item in _type_items(system):
             if np.ndim(item.value) == 0:
                 out.append(f'{item.label} = {item.value:.4g}\n')
@@ -169,6 +225,9 @@ def format_report(system: System) -> str:
         out.append(f'poles of A - B K = {_poles_text(feedback.design.achieved_poles)}\n')
         if feedback.reference_gain is not None:
             out.append(_matrix_text('N (reference gain)', feedback.reference_gain))
+        if feedback.disturbance_gain is not None and feedback.disturbance_gain.any():
+            out.append(_matrix_text('K_d (disturbance rejection, u = -K x_hat - K_d d_hat)',
+                                    feedback.disturbance_gain))
     if system.closed_loop_poles is not None:
         out.append(f'\nClosed-loop poles = {_poles_text(system.closed_loop_poles)}\n')
     tf = system.controller_tf

@@ -117,13 +117,30 @@ MODEL = (
     _spec('model.state_names', STRING_ARRAY, [], 'n state names (default x1..xn).'),
     _spec('model.input_names', STRING_ARRAY, [], 'm input names (default u1..um).'),
     _spec('model.output_names', STRING_ARRAY, [], 'p output names (default y1..yp).'),
+    _spec('model.disturbances', STRING_ARRAY, [], 'Disturbance kinds, one per disturbance: '
+          'constant (1 state) | ramp (2 states: value, rate) | sinusoid (2 states: value, '
+          'rate); the observers estimate the plant augmented with their states (README, '
+          'Disturbances). Empty: none.'),
+    _spec('model.disturbance_entries', STRING_ARRAY, [], 'Where each disturbance enters: '
+          'input:<input name> (added to that input, a matched load) | output:<output name> '
+          '(added to that output, a sensor bias) | matrix (the next column of '
+          'model.disturbance_matrix); the name may be left out with one input or output. '
+          'Empty: every disturbance at the single input.'),
+    _values('model.disturbance_matrix', _matrix('Disturbance input matrix E, n x k, one column '
+                                                'per matrix entry of '
+                                                'model.disturbance_entries'), ALL_NODES),
+    _values('model.disturbance_frequencies', 'Frequencies in rad/s (> 0), one per sinusoid '
+            'of model.disturbances, in order.', ALL_NODES),
+    _spec('model.disturbance_names', STRING_ARRAY, [], 'One name per disturbance (default '
+          'd1..dk); its states are <name> and, for ramps and sinusoids, <name>_rate.'),
 )
 
 OBSERVER_STREAM = (
     _spec('observer.type', STRING, 'full_order',
           ' | '.join(kind.name for kind in observer_types()) + ' (the registered observer '
           'types).', _OBS, choices=tuple(kind.name for kind in observer_types())),
-    _values('observer.initial_state', 'Initial estimate, n values. Empty (the default): the '
+    _values('observer.initial_state', 'Initial estimate, n values (with model.disturbances: '
+            'plant then disturbance states). Empty (the default): the '
             'first measurement initialises the estimate (least-norm x with C x = y; a '
             'time-varying Kalman filter updates the prior 0 with P0).', _OBS, dynamic=True,
             limit=VALUE_LIMIT),
@@ -160,6 +177,10 @@ FEEDBACK_PARAMETERS = (
                                                'when the plant is square'), _FB, dynamic=True),
     _values('feedback.input_limits', 'Command saturation: [min, max] or [min_1, max_1, ..., '
             'min_m, max_m].', _FB, dynamic=True, limit=VALUE_LIMIT),
+    _spec('feedback.disturbance_rejection', BOOL, False,
+          'u = -K x_hat - d_hat + N r: subtract the estimated matched input disturbances '
+          '(model.disturbance_entries input:<name>) from their inputs; K covers the plant '
+          'states only.', _FB, dynamic=True),
     _seconds('feedback.timeout', 0.5, 'Steady-clock seconds without an accepted x_hat after '
              'which the safe command is published, with use_sim_time too (0.001 ... 3600).',
              0.001, 3600.0, _FB, dynamic=True),
@@ -208,6 +229,12 @@ PLANT_PARAMETERS = (
     _values('plant.safe_input', 'Input applied before the first command and after '
             'plant.command_timeout, m values (default zeros; inside plant.input_limits).', _PL,
             limit=VALUE_LIMIT),
+    _values('plant.disturbance', 'Disturbance states applied from plant.disturbance_time on, '
+            'one value per disturbance state (value, and rate for ramps and sinusoids, in '
+            'the order of model.disturbances); empty: no disturbance.', _PL,
+            limit=VALUE_LIMIT),
+    _seconds('plant.disturbance_time', 0.0, 'Simulated seconds after the first sample at '
+             'which plant.disturbance is applied (a step; 0 ... 1e6).', 0.0, 1e6, _PL),
     _spec('plant.samples', INTEGER, 0,
           'Number of samples to simulate, then stop; 0 runs until shut down.', _PL, low=0,
           high=10 ** 12, unit='a count'),

@@ -33,6 +33,7 @@ from observer_ros.core.design.common import ObserverDesign
 from observer_ros.core.design.controller import (
     closed_loop_poles, controller_transfer_function, ControllerTransferFunction)
 from observer_ros.core.design.feedback import design_feedback, FeedbackDesign
+from observer_ros.core.disturbances import augment, augmented_noise, DisturbanceModel
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.estimators import StateEstimator
 from observer_ros.core.model import (
@@ -64,6 +65,8 @@ class PlantSettings:
     input_limits: Optional[np.ndarray]
     command_timeout: float
     safe_input: np.ndarray
+    disturbance: Optional[np.ndarray] = None
+    disturbance_time: float = 0.0
 
     @property
     def period_ns(self) -> int:
@@ -81,6 +84,20 @@ class FeedbackSettings:
     timeout: float
     safe_command: np.ndarray
     safe_command_period: float
+    disturbance_gain: Optional[np.ndarray] = None
+
+    @property
+    def estimate_gain(self) -> np.ndarray:
+        """
+        Return the gain on the whole estimate: ``[K, K_d]``, ``(m, n + n_d)``.
+
+        ``K_d`` (:attr:`disturbance_gain`) cancels the matched input disturbances when
+        ``feedback.disturbance_rejection`` is set and is zero otherwise; without
+        disturbances the gain is ``K``.
+        """
+        if self.disturbance_gain is None:
+            return self.design.gain
+        return np.hstack([self.design.gain, self.disturbance_gain])
 
 
 @dataclass(frozen=True)
@@ -93,6 +110,9 @@ class System:
     parameters : dict
         The complete flat parameter mapping (defaults filled in).
     model : StateSpaceModel
+        The model the observer estimates and the plant simulates: the plant augmented with
+        the disturbance states (plant states first) when ``model.disturbances`` is given,
+        else the plant itself.
     observer : ObserverDesign or None
         None when the parameters define no observer (no poles, gain or noise).
     observer_type : str
@@ -106,6 +126,8 @@ class System:
     closed_loop_poles : numpy.ndarray or None
     notes : tuple of str
         Warnings worth showing (an unstable controller, for instance).
+    disturbance : DisturbanceModel or None
+        The plant, its disturbances and the augmented model (``model.disturbances``).
 
     """
 
@@ -119,6 +141,12 @@ class System:
     controller_tf: Optional[ControllerTransferFunction] = None
     closed_loop_poles: Optional[np.ndarray] = None
     notes: tuple = field(default_factory=tuple)
+    disturbance: Optional[DisturbanceModel] = None
+
+    @property
+    def plant_model(self) -> StateSpaceModel:
+        """The plant without its disturbance states (what ``feedback.*`` is designed for)."""
+        return self.model if self.disturbance is None else self.disturbance.plant
 
     @property
     def kind(self) -> ObserverType:
@@ -198,10 +226,24 @@ def _observer_fallback(params: dict) -> str:
     return 'observer.gain' if params['observer.gain'] else 'observer.poles'
 
 
-def _design_observer(params: dict, model: StateSpaceModel) -> Optional[ObserverDesign]:
+def _design_observer(params: dict, model: StateSpaceModel,
+                     disturbance: Optional[DisturbanceModel] = None) -> Optional[ObserverDesign]:
     kind = observer_type(params['observer.type'])
     given = {name[len('observer.'):]: value for name, value in params.items()
              if name.startswith('observer.')}
+    if params['observer.disturbance_noise'] and disturbance is None:
+        raise ConfigError('observer.disturbance_noise', 'the model has no disturbances '
+                          '(model.disturbances); leave it empty')
+    if disturbance is not None and kind.name == 'kalman' and given.get('process_noise'):
+        if not given.get('disturbance_noise'):
+            states = list(model.state_names[disturbance.plant.n_states:])
+            raise ConfigError('observer.disturbance_noise', f'expected '
+                              f'{disturbance.n_disturbance_states} values (the process noise '
+                              f'of the disturbance states {states}), got none')
+        plant_q = covariance_from_flat('observer.process_noise', given['process_noise'],
+                                       disturbance.plant.n_states)
+        given['process_noise'] = augmented_noise(
+            plant_q, given['disturbance_noise'], disturbance.n_disturbance_states).ravel().tolist()
     if kind.vet is not None:
         kind.vet(model, given)
     return kind.design(model, kind.values(given))
@@ -227,9 +269,50 @@ def _limits(parameter: str, values, n_inputs: int):
         raise ConfigError(parameter, e.reason) from e
 
 
-def _feedback(params: dict, model: StateSpaceModel) -> Optional[FeedbackSettings]:
+def _disturbance(params: dict, model: StateSpaceModel) -> Optional[DisturbanceModel]:
+    """Augment the plant with ``model.disturbances`` (None when there are none)."""
+    if not params['model.disturbances']:
+        for name in ('model.disturbance_entries', 'model.disturbance_matrix',
+                     'model.disturbance_frequencies', 'model.disturbance_names'):
+            if params[name]:
+                raise ConfigError(name, 'given without model.disturbances; list the '
+                                  'disturbance kinds there or leave it empty')
+        return None
+    try:
+        return augment(model, params['model.disturbances'], params['model.disturbance_entries'],
+                       params['model.disturbance_matrix'],
+                       params['model.disturbance_frequencies'],
+                       params['model.disturbance_names'])
+    except ConfigError as e:
+        raise named(e, 'model', 'model.disturbances') from e
+
+
+def _disturbance_gain(params: dict, model: StateSpaceModel,
+                      disturbance: Optional[DisturbanceModel]) -> Optional[np.ndarray]:
+    """Return ``K_d`` of ``u = -K x_hat - K_d d_hat`` (None without disturbances)."""
+    rejection = params['feedback.disturbance_rejection']
+    if disturbance is None:
+        if rejection:
+            raise ConfigError('feedback.disturbance_rejection', 'expected a model with a '
+                              'matched input disturbance (model.disturbances with '
+                              'model.disturbance_entries input:<name>); the model has none')
+        return None
+    if not rejection:
+        return np.zeros((model.n_inputs, disturbance.n_disturbance_states))
+    if not disturbance.matched():
+        raise ConfigError('feedback.disturbance_rejection', 'expected a matched input '
+                          'disturbance (model.disturbance_entries input:<name>); the '
+                          'disturbances enter at outputs or through disturbance_matrix only')
+    return disturbance.rejection_gain()
+
+
+def _feedback(params: dict, model: StateSpaceModel,
+              disturbance: Optional[DisturbanceModel] = None) -> Optional[FeedbackSettings]:
     gain, pole_text = params['feedback.gain'] or None, params['feedback.poles']
     if gain is None and not pole_text:
+        if params['feedback.disturbance_rejection']:
+            raise ConfigError('feedback.disturbance_rejection', 'expected feedback.gain or '
+                              'feedback.poles with it')
         return None
     if gain is not None and pole_text:
         raise ConfigError('feedback.gain', 'give either feedback.gain or feedback.poles, '
@@ -263,7 +346,8 @@ def _feedback(params: dict, model: StateSpaceModel) -> Optional[FeedbackSettings
                   params['topics.u_cmd.limit'], 'topics.u_cmd.limit')
     return FeedbackSettings(design=design, reference_gain=reference_gain, input_limits=limits,
                             timeout=params['feedback.timeout'], safe_command=safe_command,
-                            safe_command_period=params['feedback.safe_command_period'])
+                            safe_command_period=params['feedback.safe_command_period'],
+                            disturbance_gain=_disturbance_gain(params, model, disturbance))
 
 
 def plant_rate(params: Mapping, model: StateSpaceModel) -> float:
@@ -289,16 +373,42 @@ def plant_rate(params: Mapping, model: StateSpaceModel) -> float:
     return rate
 
 
-def _plant(params: dict, model: StateSpaceModel) -> PlantSettings:
+def _plant_disturbance(params: dict, disturbance: Optional[DisturbanceModel]) -> tuple:
+    """Return ``(values, time)`` of ``plant.disturbance`` (None when not applied)."""
+    values = params['plant.disturbance']
+    if not values:
+        return None, 0.0
+    if disturbance is None:
+        raise ConfigError('plant.disturbance', 'the model has no disturbances '
+                          '(model.disturbances); leave it empty')
+    names = disturbance.augmented.state_names[disturbance.plant.n_states:]
+    try:
+        vector = vector_from_flat('plant.disturbance', values, len(names))
+    except ConfigError as e:
+        raise ConfigError('plant.disturbance', f'{e.reason} (one per disturbance state: '
+                          f'{", ".join(names)})') from e
+    return vector, params['plant.disturbance_time']
+
+
+def _plant(params: dict, model: StateSpaceModel,
+           disturbance: Optional[DisturbanceModel] = None) -> PlantSettings:
     rate = plant_rate(params, model)
+    plant_model = model if disturbance is None else disturbance.plant
     initial = params['plant.initial_state']
-    initial_state = (vector_from_flat('plant.initial_state', initial, model.n_states)
-                     if initial else np.zeros(model.n_states))
+    initial_state = (vector_from_flat('plant.initial_state', initial, plant_model.n_states)
+                     if initial else np.zeros(plant_model.n_states))
     _check_inside('plant.initial_state', initial_state, params['topics.x_true.limit'],
                   'topics.x_true.limit')
-    if params['plant.process_noise']:
-        covariance_from_flat('plant.process_noise', params['plant.process_noise'],
-                             model.n_states)
+    process_noise = params['plant.process_noise']
+    if process_noise:
+        q = covariance_from_flat('plant.process_noise', process_noise, plant_model.n_states)
+        if disturbance is not None:
+            process_noise = augmented_noise(q, np.zeros(disturbance.n_disturbance_states),
+                                            disturbance.n_disturbance_states).ravel().tolist()
+    if disturbance is not None:
+        initial_state = np.concatenate([initial_state,
+                                        np.zeros(disturbance.n_disturbance_states)])
+    plant_disturbance, disturbance_time = _plant_disturbance(params, disturbance)
     if params['plant.measurement_noise']:
         covariance_from_flat('plant.measurement_noise', params['plant.measurement_noise'],
                              model.n_outputs)
@@ -314,10 +424,11 @@ def _plant(params: dict, model: StateSpaceModel) -> PlantSettings:
                           f'(1 / plant.rate_hz = {1.0 / rate:g} s), got {command_timeout:g}: '
                           f'every sample would find the command stale')
     return PlantSettings(rate_hz=rate, initial_state=initial_state,
-                         process_noise=params['plant.process_noise'],
+                         process_noise=process_noise,
                          measurement_noise=params['plant.measurement_noise'],
                          seed=params['plant.seed'], input_limits=limits,
-                         command_timeout=command_timeout, safe_input=safe_input)
+                         command_timeout=command_timeout, safe_input=safe_input,
+                         disturbance=plant_disturbance, disturbance_time=disturbance_time)
 
 
 def _check_interval_resolution(params: dict, model: StateSpaceModel) -> None:
@@ -328,6 +439,23 @@ def _check_interval_resolution(params: dict, model: StateSpaceModel) -> None:
     if resolution and model.is_discrete:
         raise ConfigError('observer.interval_resolution', f'a discrete model (model.dt = '
                           f'{model.dt}) has one period; expected 0, got {resolution}')
+
+
+def _without_generator_modes(poles: np.ndarray, model: StateSpaceModel,
+                             disturbance: DisturbanceModel) -> np.ndarray:
+    """
+    Drop the disturbance generators' modes from the augmented closed-loop poles.
+
+    The generators are exogenous (nothing feeds back into them), so their modes appear in
+    the augmented closed loop unchanged; the loop of the real plant and the observer-controller
+    has the others.
+    """
+    n = disturbance.plant.n_states
+    remaining = list(np.asarray(poles, dtype=complex))
+    for mode in np.linalg.eigvals(model.a[n:, n:]):
+        if remaining:
+            remaining.pop(int(np.argmin(np.abs(np.array(remaining) - mode))))
+    return np.array(remaining)
 
 
 def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> System:
@@ -364,9 +492,13 @@ def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> Syst
             complete['model.input_names'], complete['model.output_names'])
     except ConfigError as e:
         raise named(e, 'model', 'model.A') from e
+    plant_model = model
+    disturbance = _disturbance(complete, plant_model)
+    if disturbance is not None:
+        model = disturbance.augmented
     fallback = _observer_fallback(complete)
     try:
-        observer = _design_observer(complete, model)
+        observer = _design_observer(complete, model, disturbance)
     except (ConfigError, DesignError) as e:
         raise named(e, 'observer', fallback) from e
     except NUMERIC_FAILURES as e:
@@ -378,24 +510,31 @@ def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> Syst
     if initial_estimate is not None:
         _check_inside('observer.initial_state', initial_estimate,
                       complete['topics.x_hat.limit'], 'topics.x_hat.limit')
-    feedback = _feedback(complete, model)
-    plant = _plant(complete, model)
+    feedback = _feedback(complete, plant_model, disturbance)
+    plant = _plant(complete, model, disturbance)
     controller_tf, cl_poles, notes = None, None, []
     if observer is not None and feedback is not None:
-        cl_poles = closed_loop_poles(model, observer.realization, feedback.design.gain)
+        cl_poles = closed_loop_poles(model, observer.realization, feedback.estimate_gain)
+        if disturbance is not None:
+            cl_poles = _without_generator_modes(cl_poles, model, disturbance)
         if model.n_inputs == 1 and model.n_outputs == 1:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter('always')
                 try:
                     controller_tf = controller_transfer_function(
-                        model, observer.realization, feedback.design.gain)
+                        model, observer.realization, feedback.estimate_gain)
                 except DesignError as e:
                     # The realization comes from the poles and, when given, the gain.
                     culprit = ('observer.poles / observer.gain' if complete.get('observer.gain')
                                else 'observer.poles')
                     raise ConfigError(culprit, e.reason) from e
-            notes.extend(str(w.message) for w in caught)
+            messages = [str(w.message) for w in caught]
+            if disturbance is not None:
+                # The augmented plant's disturbance modes are uncontrollable by construction:
+                # the Diophantine cross-check does not apply to it.
+                messages = [m for m in messages if not m.startswith('G_oc could not be')]
+            notes.extend(messages)
     return System(parameters=complete, model=model, observer=observer,
                   observer_type=complete['observer.type'], initial_estimate=initial_estimate,
                   feedback=feedback, plant=plant, controller_tf=controller_tf,
-                  closed_loop_poles=cl_poles, notes=tuple(notes))
+                  closed_loop_poles=cl_poles, notes=tuple(notes), disturbance=disturbance)

@@ -138,6 +138,8 @@ _EXPORTS = {
                                      'TimeVaryingKalman', 'make_estimator'),
     'observer_ros.core.streaming': ('StreamEstimator', 'ValueLimits'),
     'observer_ros.core.simulation': ('PlantSimulator',),
+    'observer_ros.core.disturbances': ('Disturbance', 'DisturbanceModel', 'augment',
+                                       'augmented_noise'),
     'observer_ros.core.evaluation': (
         'ErrorReport', 'error_report', 'format_error_table', 'settling_time', 'decay_rate'),
 }

@@ -102,6 +102,12 @@ class PlantSimulator:
     input_limits : array_like, shape (m, 2) or flat (2,) or (2 m,), optional
         Saturation ``[min, max]`` applied to every input (see
         :func:`input_limits_from_flat`).
+    disturbance : array_like, shape (n_d,), optional
+        Values written into the last ``n_d`` states (the disturbance states of an augmented
+        model, :mod:`observer_ros.core.disturbances`) once ``disturbance_time`` seconds
+        have been simulated: a disturbance step.
+    disturbance_time : float
+        Simulated seconds from the start (0: from the first sample on).
 
     Attributes
     ----------
@@ -137,7 +143,8 @@ class PlantSimulator:
 
     def __init__(self, model: StateSpaceModel, initial_state=None, process_noise=None,
                  measurement_noise=None, seed: Optional[int] = None,
-                 input_limits: Optional[np.ndarray] = None) -> None:
+                 input_limits: Optional[np.ndarray] = None, disturbance=None,
+                 disturbance_time: float = 0.0) -> None:
         self.model = model
         self.x = (np.zeros(model.n_states) if initial_state is None
                   else vector_from_flat('initial_state', initial_state, model.n_states))
@@ -150,6 +157,20 @@ class PlantSimulator:
         self.input_limits = (None if input_limits is None else
                              input_limits_from_flat(np.ravel(input_limits), model.n_inputs))
         self._cache: OrderedDict = OrderedDict()
+        self.elapsed = 0.0
+        self.disturbance_time = float(disturbance_time)
+        self._pending = (None if disturbance is None or len(disturbance) == 0
+                         else np.asarray(disturbance, dtype=float).ravel())
+        if self._pending is not None and self._pending.size > model.n_states:
+            raise ConfigError('disturbance', f'expected at most {model.n_states} values, got '
+                              f'{self._pending.size}')
+        self._apply_due_disturbance()
+
+    def _apply_due_disturbance(self) -> None:
+        if self._pending is not None and self.elapsed >= self.disturbance_time - 1e-12:
+            self.x = self.x.copy()
+            self.x[self.x.size - self._pending.size:] = self._pending
+            self._pending = None
 
     def _sampled(self, dt: float):
         key = dt
@@ -220,6 +241,8 @@ class PlantSimulator:
         self.x = ad @ self.x + bd @ self.saturate(u)
         if q_root is not None:
             self.x = self.x + q_root @ self.rng.standard_normal(self.model.n_states)
+        self.elapsed += self.model.dt if self.model.is_discrete else float(dt)
+        self._apply_due_disturbance()
         return self.x
 
     def measure(self) -> np.ndarray:

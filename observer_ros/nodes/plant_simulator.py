@@ -74,7 +74,7 @@ class PlantSimulatorNode(ConfiguredNode):
         params = system.parameters
         self.simulator = PlantSimulator(
             system.model, plant.initial_state, plant.process_noise, plant.measurement_noise,
-            plant.seed, plant.input_limits)
+            plant.seed, plant.input_limits, plant.disturbance, plant.disturbance_time)
         self.period_ns = plant.period_ns
         self.period = self.period_ns / NANOSECONDS
         self.samples = params['plant.samples']

@@ -15,6 +15,11 @@
 """
 ``state_feedback``: ``u_cmd = sat(-K x_hat + N r)`` from ``x_hat`` and ``reference``.
 
+With ``model.disturbances`` the estimate carries the disturbance states after the plant's:
+``K`` acts on the plant states, and with ``feedback.disturbance_rejection`` each matched
+input disturbance estimate is subtracted from its input (``u = -K x_hat - d_hat + N r``,
+the gain ``[K, K_d]`` of :attr:`~observer_ros.config.system.FeedbackSettings.estimate_gain`).
+
 The command carries the stamp of the estimate it was computed from, so a lockstep plant can
 tell it apart. An ``x_hat`` or ``reference`` beyond ``topics.<topic>.limit`` is dropped and
 counted (``out_of_range``); a command that comes out non-finite or beyond
@@ -50,7 +55,7 @@ NANOSECONDS = 1_000_000_000
 def feedback_law(system) -> StateFeedbackLaw:
     """Build the feedback law of a validated system."""
     feedback = system.feedback
-    return StateFeedbackLaw(feedback.design.gain, feedback.reference_gain,
+    return StateFeedbackLaw(feedback.estimate_gain, feedback.reference_gain,
                             feedback.input_limits)
 
 
@@ -90,6 +95,9 @@ class StateFeedbackNode(ConfiguredNode):
                                               autostart=False)
         self.diagnostics = DiagnosticsPublisher(self, lambda: self.counters)
         self.get_logger().info(f'K = {feedback.design.gain.tolist()}')
+        if feedback.disturbance_gain is not None and feedback.disturbance_gain.any():
+            self.get_logger().info(f'K_d = {feedback.disturbance_gain.tolist()} (disturbance '
+                                   f'rejection)')
 
     def vet_system(self, system) -> None:
         """Refuse configurations without a feedback gain."""

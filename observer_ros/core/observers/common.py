@@ -37,7 +37,8 @@ POLES = Argument(
     'poles', STRING_ARRAY, [],
     'Observer error poles as strings ("-10", "-2+2j", "zeta=0.8, wn=10"); s-plane for a '
     'continuous model, z-plane for a discrete one. n poles (full order) or n - p (reduced '
-    'order, Chen).', dynamic=True)
+    'order, Chen); with model.disturbances n counts the disturbance states too.',
+    dynamic=True)
 GAIN = array('gain', matrix_text('Given observer gain L instead of poles: n x p (full order) '
                                  'or (n-p) x p (reduced order, Chen)'), dynamic=True)
 METHOD = Argument('method', STRING, 'auto',

@@ -42,12 +42,18 @@ PROCESS_NOISE = array('process_noise', 'Kalman Q: n diagonal values or n x n row
 MEASUREMENT_NOISE = array('measurement_noise', 'Kalman R: p diagonal values or p x p '
                           'row-major; covariance of each sampled measurement (continuous '
                           'model: intensity for the CARE design).', dynamic=True)
+DISTURBANCE_NOISE = array('disturbance_noise', 'Kalman with model.disturbances: process '
+                          'noise of the disturbance states, one diagonal value each '
+                          '(intensity or covariance like process_noise, which then covers '
+                          'the plant states only): how fast the disturbances may wander.',
+                          dynamic=True)
 TIME_VARYING = Argument('time_varying', BOOL, False,
                         'Kalman: propagate the covariance over each actual interval (Joseph '
                         'form) instead of the steady-state filter of each interval.')
 INITIAL_COVARIANCE = array('initial_covariance', 'Time-varying Kalman: P0, n diagonal values '
                            'or n x n row-major (default: the identity); the first measurement '
-                           'updates (initial_state, P0).', dynamic=True)
+                           'updates (initial_state, P0). n counts the disturbance states of '
+                           'model.disturbances.', dynamic=True)
 
 
 def vet(model, given):
@@ -95,5 +101,6 @@ def report(design):
 
 TYPE = register(ObserverType(
     'kalman', 'Kalman filter (steady-state, or time-varying with observer.time_varying)',
-    (PROCESS_NOISE, MEASUREMENT_NOISE, TIME_VARYING, INITIAL_COVARIANCE, FORM), design,
+    (PROCESS_NOISE, MEASUREMENT_NOISE, DISTURBANCE_NOISE, TIME_VARYING, INITIAL_COVARIANCE,
+     FORM), design,
     estimator, report, vet))
