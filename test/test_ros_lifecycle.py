@@ -40,7 +40,8 @@ TRANSITIONS = {'configure': Transition.TRANSITION_CONFIGURE,
                'activate': Transition.TRANSITION_ACTIVATE,
                'deactivate': Transition.TRANSITION_DEACTIVATE,
                'cleanup': Transition.TRANSITION_CLEANUP,
-               'shutdown': Transition.TRANSITION_INACTIVE_SHUTDOWN}
+               'shutdown': Transition.TRANSITION_INACTIVE_SHUTDOWN,
+               'shutdown from active': Transition.TRANSITION_ACTIVE_SHUTDOWN}
 
 #: seed 003 switched to a steady-state Kalman filter (a structural change).
 KALMAN = {'observer__type': 'kalman', 'observer__poles': [],
@@ -232,8 +233,8 @@ def test_bad_configuration_fails_configure_naming_it_until_fixed(factory, name, 
             assert lifecycle.change('configure') and lifecycle.state() == 'inactive'
 
 
-def test_autostart_brings_both_nodes_to_active():
-    extra = overrides(autostart=True)
+def test_autostart_brings_both_nodes_to_active_and_shutdown_sends_the_safe_command():
+    extra = overrides(autostart=True, feedback__timeout=30.0)
     system = validate_parameters(load_parameter_file(str(SEED003)))
     with ros_context('--params-file', str(SEED003)) as context:
         observer = ObserverLifecycleNode(context=context, parameter_overrides=extra)
@@ -247,7 +248,14 @@ def test_autostart_brings_both_nodes_to_active():
                               and feedback.count_publishers('x_hat') >= 1, 10.0)
             samples = plant_samples(system, 3)
             drive(driver, executor, observer, samples, 0)
-            assert spin_until(executor, lambda: len(driver.commands) >= 3, 5.0)
+            assert spin_until(executor, lambda: len(driver.commands) == 3, 5.0)
+            # Shutdown from active: the feedback's one safe command (zeros), then nothing.
+            lifecycle = Lifecycle(driver.node, executor, 'state_feedback')
+            assert lifecycle.change('shutdown from active')
+            assert spin_until(executor, lambda: len(driver.commands) == 4, 5.0)
+            assert list(driver.commands[3].position) == [0.0]
+            spin_until(executor, lambda: len(driver.commands) > 4, 0.2)
+            assert len(driver.commands) == 4 and lifecycle.state() == 'finalized'
 
 
 def test_autostart_console_script_is_active_and_stops_cleanly():
