@@ -17,15 +17,13 @@ The managed (lifecycle) observer and state feedback over DDS.
 
 Transitions go through the nodes' ``change_state`` and ``get_state`` services from a client
 node, as ``ros2 lifecycle set`` sends them; messages through real publishers and
-subscriptions; configure errors are read from ``/rosout``.
+subscriptions; configure errors are read from the node's log.
 """
 
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState, GetState
 import numpy as np
 import pytest
-from rcl_interfaces.msg import Log
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from observer_ros.config import FEEDBACK, node_parameters, OBSERVER, validate_parameters
 from observer_ros.config import load_parameter_file
@@ -111,14 +109,16 @@ def test_only_the_managed_variants_declare_autostart():
         assert 'autostart' in {spec.name for spec in node_parameters(role, managed=True)}
 
 
-def test_observer_transitions_output_cleanup_and_reconfigure():
+@pytest.mark.parametrize('executor_name', ['events', 'single'])
+def test_observer_transitions_output_cleanup_and_reconfigure(executor_name):
     system = validate_parameters(load_parameter_file(str(SEED003)))
     samples = plant_samples(system, 12)
     with ros_context('--params-file', str(SEED003)) as context:
         observer = ObserverLifecycleNode(context=context)
         driver = Driver(context)
         idle = own_entities(observer)
-        with executor_with(context, observer, driver.node) as executor:
+        with executor_with(context, observer, driver.node,
+                           executor_name=executor_name) as executor:
             lifecycle = Lifecycle(driver.node, executor, 'observer')
             assert lifecycle.state() == 'unconfigured'
             assert not hasattr(observer, 'stream') and '/x_hat' not in idle
@@ -166,14 +166,17 @@ def test_observer_transitions_output_cleanup_and_reconfigure():
             assert own_entities(observer) == idle
 
 
-def test_feedback_sends_one_safe_command_on_deactivate_and_nothing_while_inactive():
+@pytest.mark.parametrize('executor_name', ['events', 'single'])
+def test_feedback_sends_one_safe_command_on_deactivate_and_nothing_while_inactive(
+        executor_name):
     extra = overrides(feedback__timeout=0.1, feedback__safe_command_period=0.05,
                       feedback__safe_command=[0.25])
     estimate = [0.3, -0.1]
     with ros_context('--params-file', str(SEED003)) as context:
         feedback = StateFeedbackLifecycleNode(context=context, parameter_overrides=extra)
         driver = Driver(context)
-        with executor_with(context, feedback, driver.node) as executor:
+        with executor_with(context, feedback, driver.node,
+                           executor_name=executor_name) as executor:
             lifecycle = Lifecycle(driver.node, executor, 'state_feedback')
             assert lifecycle.change('configure')
             gain = feedback.system.feedback.design.gain
@@ -210,27 +213,26 @@ def test_feedback_sends_one_safe_command_on_deactivate_and_nothing_while_inactiv
     (StateFeedbackLifecycleNode, 'state_feedback', {'feedback__poles': []},
      {'feedback__poles': ['-3', '-4']}, 'feedback.gain: the state_feedback node needs'),
 ])
-def test_bad_configuration_fails_configure_naming_it_until_fixed(factory, name, bad, fix,
-                                                                 reason):
+def test_bad_configuration_fails_configure_naming_it_until_fixed(capfd, factory, name, bad,
+                                                                 fix, reason):
     with ros_context('--params-file', str(SEED003)) as context:
         node = factory(context=context, parameter_overrides=overrides(**bad))
         driver = Driver(context)
-        logs = []
-        driver.node.create_subscription(Log, '/rosout', logs.append, QoSProfile(
-            depth=100, reliability=ReliabilityPolicy.RELIABLE,
-            durability=DurabilityPolicy.TRANSIENT_LOCAL))
         with executor_with(context, node, driver.node) as executor:
             lifecycle = Lifecycle(driver.node, executor, name)
+            capfd.readouterr()
             assert not lifecycle.change('configure')
             assert lifecycle.state() == 'unconfigured'
-            assert spin_until(executor, lambda: any(
-                log.name == name and log.level == Log.ERROR for log in logs), 5.0)
-            text = next(log.msg for log in logs if log.name == name and log.level == Log.ERROR)
-            assert text.startswith('configure failed: ' + reason) and '\n' not in text, text
+            # The node's log (stderr and /rosout) says why, in one line naming the parameter.
+            logged = [line for line in capfd.readouterr().err.splitlines()
+                      if f'[{name}]: configure failed: ' in line]
+            assert len(logged) == 1 and f'configure failed: {reason}' in logged[0], logged
+            assert node.configure_error.startswith(reason)
             assert not lifecycle.change('activate') and lifecycle.state() == 'unconfigured'
             result = set_parameters(executor, driver.node, name, **fix)
             assert result.successful, result.reason
             assert lifecycle.change('configure') and lifecycle.state() == 'inactive'
+            assert node.configure_error is None
 
 
 def test_autostart_brings_both_nodes_to_active_and_shutdown_sends_the_safe_command():
