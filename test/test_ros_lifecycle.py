@@ -136,9 +136,17 @@ def test_observer_transitions_output_cleanup_and_reconfigure(executor_name):
             got = np.array([list(m.position) for m in driver.estimates])
             assert np.array_equal(got, expected_estimates(system, samples[3:6]))
             # Run-time changes while active are vetted as in the plain node.
+            poles = list(observer.get_parameter('observer.poles').value)
+            design = observer.stream.estimator.design
             result = set_parameters(executor, driver.node, 'observer',
                                     observer__poles=['1', '2'])
             assert not result.successful and 'observer.poles' in result.reason
+            assert list(observer.get_parameter('observer.poles').value) == poles
+            assert observer.stream.estimator.design is design
+            result = set_parameters(executor, driver.node, 'observer',
+                                    observer__poles=['-20+5j', '-20-5j'])
+            assert result.successful, result.reason
+            assert observer.stream.estimator.design is not design
             result = set_parameters(executor, driver.node, 'observer', model__A=[0.0] * 4)
             assert not result.successful and 'model.A: read-only while /observer is ' \
                 'configured' in result.reason, result.reason

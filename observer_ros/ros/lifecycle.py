@@ -143,16 +143,22 @@ class ManagedNode(SchemaParameters, LifecycleNode):
     def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
         """Validate the parameters, design and build the wiring; fail with the reason."""
         before, attributes = self._entities(), set(vars(self))
+        error = None
         try:
             self.system = validate_parameters(self.current_parameters())
             self.build(self.system)  # vets the system first, as the plain node does
         except (ConfigError, DesignError) as e:
-            self._built = self._created(before, attributes)
+            error = e
+        except Exception as e:  # rclpy turns it into on_error silently: say what it was
+            self.get_logger().error(f'configure raised {type(e).__name__}: {e}')
+            raise
+        finally:
+            self._built = self._created(before, attributes)  # on_error releases it too
+        if error is not None:
             self._release()
-            self.configure_error = str(e)
-            self.get_logger().error(f'configure failed: {e}')
+            self.configure_error = str(error)
+            self.get_logger().error(f'configure failed: {error}')
             return TransitionCallbackReturn.FAILURE
-        self._built = self._created(before, attributes)
         self.configure_error = None
         return super().on_configure(state)
 
