@@ -45,6 +45,8 @@ setup(
             'plant_simulator = observer_ros.nodes.plant_simulator:main',
             'observer = observer_ros.nodes.observer:main',
             'state_feedback = observer_ros.nodes.state_feedback:main',
+            'observer_lifecycle = observer_ros.nodes.observer_lifecycle:main',
+            'state_feedback_lifecycle = observer_ros.nodes.state_feedback_lifecycle:main',
             'closed_loop = observer_ros.nodes.closed_loop:main',
             'replay = observer_ros.tools.replay:main',
             'play_bag = observer_ros.nodes.bag_player:main',

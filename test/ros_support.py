@@ -45,9 +45,10 @@ def ros_context(*ros_args):
 
 
 @contextmanager
-def executor_with(context, *nodes):
-    """Spin ``nodes`` on a single-threaded executor; destroy them afterwards."""
-    executor = SingleThreadedExecutor(context=context)
+def executor_with(context, *nodes, executor_name: str = 'single'):
+    """Spin ``nodes`` on an executor (single-threaded by default); destroy them afterwards."""
+    executor = (SingleThreadedExecutor(context=context) if executor_name == 'single'
+                else make_executor(executor_name, context))
     for node in nodes:
         executor.add_node(node)
     try:

@@ -18,17 +18,15 @@ The console-script nodes as separate processes, the way ``ros2 run`` starts them
 A recorder in the test process listens over DDS (same isolated domain).
 """
 
-import ast
 import subprocess
 import time
 
 import numpy as np
 import pytest
 
-from conftest import CONFIG_DIR, console_script, REPOSITORY
+from conftest import CONFIG_DIR, console_script
 from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.evaluation import align, decay_rate, settling_time
-from observer_ros.ros.parameters import EXECUTORS
 from observer_ros.ros.recorder import TopicRecorder
 from ros_support import executor_with, NodeProcess, ros_context, run_lockstep, spin_until
 
@@ -156,26 +154,3 @@ def test_three_processes_in_lockstep_equal_the_one_process_loop(executor):
         assert len(arrays[topic][0]) == samples, topic
         assert np.array_equal(arrays[topic][0], one_process[topic][0]), topic
         assert np.array_equal(arrays[topic][1], one_process[topic][1]), topic
-
-
-def test_launch_file_starts_the_three_installed_executables():
-    source = (REPOSITORY / 'launch' / 'closed_loop.launch.py').read_text()
-    tree = ast.parse(source)
-    nodes = [call for call in ast.walk(tree) if isinstance(call, ast.Call) and
-             getattr(call.func, 'id', None) == 'Node']
-    keywords = [{k.arg: k.value for k in call.keywords} for call in nodes]
-    executables = {k['executable'].value for k in keywords}
-    assert executables == {'plant_simulator', 'observer', 'state_feedback'}
-    assert all(k['package'].value == 'observer_ros' for k in keywords)
-    assert all(ast.unparse(k['parameters']) == 'common' for k in keywords)
-    assert all(ast.unparse(k['arguments']) == 'executor' for k in keywords)
-    assert "executor = ['--executor', LaunchConfiguration('executor')]" in source
-    declared = {call.args[0].value: {k.arg: k.value for k in call.keywords}
-                for call in ast.walk(tree) if isinstance(call, ast.Call)
-                and getattr(call.func, 'id', None) == 'DeclareLaunchArgument'}
-    assert set(declared) == {'params_file', 'use_sim_time', 'executor'}
-    assert ast.literal_eval(declared['executor']['choices']) == list(EXECUTORS)
-    assert declared['executor']['default_value'].value == EXECUTORS[0]
-    setup = (REPOSITORY / 'setup.py').read_text()
-    for executable in executables:
-        assert f"'{executable} = observer_ros.nodes.{executable}:main'" in setup

@@ -192,6 +192,14 @@ FEEDBACK_PARAMETERS = (
              dynamic=True),
 )
 
+#: Parameters of the managed (lifecycle) variants only (``observer_lifecycle``,
+#: ``state_feedback_lifecycle``); the plain nodes do not declare them.
+LIFECYCLE_PARAMETERS = (
+    _spec('autostart', BOOL, False, 'Managed (lifecycle) nodes only: configure and activate '
+          'at start, without a lifecycle manager or ros2 lifecycle set; a configure that '
+          'fails leaves the node unconfigured with the reason logged.', (OBSERVER, FEEDBACK)),
+)
+
 PLANT_PARAMETERS = (
     _spec('plant.rate_hz', DOUBLE, 0.0,
           'Plant sample rate in Hz: 0 (the default) follows the model (1 / model.dt for a '
@@ -265,7 +273,7 @@ def _topic_parameters(topic: str, names: str, nodes: tuple) -> tuple:
 
 PARAMETERS = (MODEL + OBSERVER_STREAM
               + tuple(_on(_OBS, argument, 'observer.') for argument in observer_arguments())
-              + FEEDBACK_PARAMETERS + PLANT_PARAMETERS
+              + FEEDBACK_PARAMETERS + LIFECYCLE_PARAMETERS + PLANT_PARAMETERS
               + tuple(spec for role in TOPIC_ROLES for spec in _topic_parameters(*role)))
 
 PARAMETER_SPECS = {spec.name: spec for spec in PARAMETERS}
@@ -289,8 +297,15 @@ def parameter_table() -> str:
     return '\n'.join(rows) + '\n'
 
 
-def node_parameters(node: str) -> tuple:
-    """Return the specs a node declares (``node``: :data:`PLANT`, :data:`OBSERVER` ...)."""
+def node_parameters(node: str, managed: bool = False) -> tuple:
+    """
+    Return the specs a node declares (``node``: :data:`PLANT`, :data:`OBSERVER` ...).
+
+    ``managed``: the node's lifecycle variant, which also declares
+    :data:`LIFECYCLE_PARAMETERS`.
+    """
     if node not in ALL_NODES:
         raise ValueError(f'node: expected one of {", ".join(ALL_NODES)}, got {node!r}')
-    return tuple(spec for spec in PARAMETERS if node in spec.nodes)
+    managed_only = () if managed else tuple(spec.name for spec in LIFECYCLE_PARAMETERS)
+    return tuple(spec for spec in PARAMETERS
+                 if node in spec.nodes and spec.name not in managed_only)

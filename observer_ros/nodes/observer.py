@@ -51,12 +51,16 @@ KALMAN_TOPICS = ('x_hat_covariance', 'innovation_covariance', 'nis')
 STEP_ERRORS = (ObserverRosError, np.linalg.LinAlgError, ValueError, ArithmeticError)
 
 
-class ObserverNode(ConfiguredNode):
-    """The observer node: one :class:`StreamEstimator` wired to topics."""
+class ObserverWiring:
+    """
+    The observer's wiring: one :class:`StreamEstimator` to topics (a mixin).
 
-    def __init__(self, node_name: str = 'observer', **kwargs) -> None:
-        super().__init__(node_name, OBSERVER, **kwargs)
-        system = self.system
+    :class:`ObserverNode` builds it in its constructor, the managed variant
+    (:mod:`observer_ros.nodes.observer_lifecycle`) on ``configure``.
+    """
+
+    def build(self, system) -> None:
+        """Make the estimator, publishers, subscriptions, timers and ``~/reset``."""
         self.vet_system(system)
         preload_methods()  # no placement method may import a module on a callback path
         self.stream = system.make_stream()
@@ -86,6 +90,20 @@ class ObserverNode(ConfiguredNode):
         self.get_logger().info(
             f'{system.observer.kind} observer of order {system.observer.order}, poles '
             f'{[complex(p) for p in system.observer.achieved_poles]}')
+
+    def pause(self) -> None:
+        """Deactivation: stop the timers; the estimator restarts at the next activation."""
+        self.wait_timer.cancel()
+        self._waiting_for = None
+        if self.prediction_timer is not None:
+            self.prediction_timer.cancel()
+        self.stream.reset()
+        self._last_published_ns = -1
+
+    def resume(self) -> None:
+        """Activation: predictions (``observer.publish_rate``) start again."""
+        if self.prediction_timer is not None:
+            self.prediction_timer.reset()
 
     def _publisher(self, topic: str):
         return self.topic_publisher(self.codecs[topic].message_class, topic)
@@ -283,6 +301,14 @@ class ObserverNode(ConfiguredNode):
         response.success = True
         response.message = 'estimator restarted from observer.initial_state'
         return response
+
+
+class ObserverNode(ObserverWiring, ConfiguredNode):
+    """The observer node, configured and running from its construction."""
+
+    def __init__(self, node_name: str = 'observer', **kwargs) -> None:
+        super().__init__(node_name, OBSERVER, **kwargs)
+        self.build(self.system)
 
 
 def _source(system) -> str:

@@ -65,13 +65,17 @@ def value_limits(system) -> dict:
             for topic in ('x_hat', 'reference', 'u_cmd')}
 
 
-class StateFeedbackNode(ConfiguredNode):
-    """The state-feedback node."""
+class StateFeedbackWiring:
+    """
+    The state feedback's wiring: the law between ``x_hat``, ``reference`` and ``u_cmd``.
 
-    def __init__(self, node_name: str = 'state_feedback', **kwargs) -> None:
-        super().__init__(node_name, FEEDBACK, **kwargs)
+    A mixin: :class:`StateFeedbackNode` builds it in its constructor, the managed variant
+    (:mod:`observer_ros.nodes.state_feedback_lifecycle`) on ``configure``.
+    """
+
+    def build(self, system) -> None:
+        """Make the law, the publisher, the subscriptions and the watchdog timers."""
         preload_methods()  # no placement method may import a module on a callback path
-        system = self.system
         self.vet_system(system)
         self.law = feedback_law(system)
         self.limits = value_limits(system)
@@ -194,9 +198,29 @@ class StateFeedbackNode(ConfiguredNode):
         if not self.stale:
             self.repeat_timer.cancel()
             return
+        self.send_safe_command()
+
+    def send_safe_command(self) -> None:
+        """Publish ``feedback.safe_command`` once, stamped with the node clock (counted)."""
         self.counters['safe_commands'] += 1
         self.publisher.publish(
             self.codecs['u_cmd'].encode(self._now_stamp(), self.system.feedback.safe_command))
+
+    def pause(self) -> None:
+        """Deactivation: one safe command, then silence; the watchdog re-arms on activation."""
+        self.send_safe_command()
+        self.watchdog.cancel()
+        self.repeat_timer.cancel()
+        self.stale = False
+        self.last_estimate_ns = None
+
+
+class StateFeedbackNode(StateFeedbackWiring, ConfiguredNode):
+    """The state-feedback node, configured and running from its construction."""
+
+    def __init__(self, node_name: str = 'state_feedback', **kwargs) -> None:
+        super().__init__(node_name, FEEDBACK, **kwargs)
+        self.build(self.system)
 
 
 def main(args=None) -> int:

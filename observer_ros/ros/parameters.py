@@ -146,35 +146,38 @@ def type_problem(spec: ParameterSpec, parameter: Parameter) -> Optional[str]:
     return None
 
 
-class ConfiguredNode(Node):
+class SchemaParameters:
     """
-    A node configured from the shared schema.
+    The schema parameters of a node: a mixin for ``Node`` and ``LifecycleNode``.
 
-    Declares the parameters of its ``role`` (:func:`observer_ros.config.node_parameters`)
-    with their schema types, structural ones read-only. Subclasses read :attr:`system`
-    after ``super().__init__`` and implement :meth:`apply_system` to switch to a new
-    validated configuration at run time. A set-parameters request is vetted before anything
-    changes: a parameter set to NOT_SET or to another type is refused with a reason naming
-    it (integers are taken as doubles), and the merged values must pass
-    :func:`~observer_ros.config.validate_parameters` and :meth:`vet_system`.
-
-    Raises
-    ------
-    ConfigError
-        From the constructor, naming the parameter, when the start-up configuration is bad.
-
+    :meth:`declare_schema` declares the parameters of a ``role``
+    (:func:`observer_ros.config.node_parameters`) with their schema types and installs the
+    callbacks that vet every set-parameters request before anything changes: a parameter
+    set to NOT_SET or to another type is refused with a reason naming it (integers are taken
+    as doubles), and, once :attr:`system` holds a configuration, the merged values must
+    pass :func:`~observer_ros.config.validate_parameters` and :meth:`vet_system`; an
+    accepted change goes to :meth:`apply_system` after it is set. While :attr:`system` is
+    None (a managed node not configured yet) only the types are checked: configuring
+    validates.
     """
 
-    def __init__(self, node_name: str, role: str, **kwargs) -> None:
-        super().__init__(node_name, **kwargs)
+    def declare_schema(self, role: str, managed: bool = False) -> None:
+        """
+        Declare the parameters of ``role`` and install the parameter callbacks.
+
+        A plain node's structural parameters are read-only; a ``managed`` node's may be
+        set while it is unconfigured (see :meth:`change_problem`), and it also declares
+        the lifecycle parameters.
+        """
         self.invalid_clock = 0
         guard_clock(self, self._on_invalid_clock)
         self.role = role
-        self.specs = {spec.name: spec for spec in node_parameters(role)}
+        self.managed = managed
+        self.specs = {spec.name: spec for spec in node_parameters(role, managed)}
         for spec in self.specs.values():
             self._declare(spec)
         self._warn_unknown_overrides()
-        self.system: System = validate_parameters(self.current_parameters())
+        self.system: Optional[System] = None
         self._pending: Optional[System] = None
         self.add_pre_set_parameters_callback(self._coerce_parameters)
         self.add_on_set_parameters_callback(self._vet_parameters)
@@ -189,8 +192,11 @@ class ConfiguredNode(Node):
         if typed is not declared:
             self.set_parameters([typed])
         self.set_descriptor(spec.name, ParameterDescriptor(
-            description=spec.description, read_only=not spec.dynamic, dynamic_typing=True,
+            description=spec.description, read_only=self._read_only(spec), dynamic_typing=True,
             additional_constraints=self._constraints(spec)))
+
+    def _read_only(self, spec: ParameterSpec) -> bool:
+        return not (spec.dynamic or self.managed)
 
     @staticmethod
     def _constraints(spec: ParameterSpec) -> str:
@@ -228,14 +234,14 @@ class ConfiguredNode(Node):
             spec = self.specs.get(parameter.name)
             if spec is None:
                 continue
-            problem = type_problem(spec, parameter)
+            problem = type_problem(spec, parameter) or self.change_problem(spec)
             if problem:
                 self._pending = None
                 self._restore_descriptors(parameters)
                 return SetParametersResult(successful=False, reason=problem)
             merged[parameter.name] = parameter.value
             touched = True
-        if not touched:
+        if not touched or self.system is None:
             return SetParametersResult(successful=True)
         try:
             self._pending = validate_parameters(merged)
@@ -252,7 +258,7 @@ class ConfiguredNode(Node):
             spec = self.specs.get(parameter.name)
             if spec is not None:
                 self.set_descriptor(spec.name, ParameterDescriptor(
-                    description=spec.description, read_only=not spec.dynamic,
+                    description=spec.description, read_only=self._read_only(spec),
                     dynamic_typing=True, additional_constraints=self._constraints(spec)))
 
     def _apply_parameters(self, parameters) -> None:
@@ -263,6 +269,10 @@ class ConfiguredNode(Node):
         self.get_logger().info(
             'parameters updated: ' + ', '.join(p.name for p in parameters))
 
+    def change_problem(self, spec: ParameterSpec) -> Optional[str]:
+        """Say why ``spec`` cannot change now (None when it can; see the managed nodes)."""
+        return None
+
     def vet_system(self, system: System) -> None:
         """Raise ConfigError if this node cannot run ``system`` (beyond schema checks)."""
 
@@ -271,8 +281,12 @@ class ConfiguredNode(Node):
 
     def topic_publisher(self, message_class: type, topic: str) -> Publisher:
         """Create a publisher with :func:`publisher_qos` (``qos_overrides`` apply)."""
-        return self.create_publisher(message_class, topic, publisher_qos(),
+        return self.output_publisher(message_class, topic, publisher_qos(),
                                      qos_overriding_options=QOS_OVERRIDES)
+
+    def output_publisher(self, *args, **kwargs) -> Publisher:
+        """Create a publisher of the node's output (a managed node's is a lifecycle one)."""
+        return self.create_publisher(*args, **kwargs)
 
     def topic_subscription(self, message_class: type, topic: str,
                            callback: Callable[[bytes], None]) -> Subscription:
@@ -290,6 +304,28 @@ class ConfiguredNode(Node):
         if key not in seen:
             seen.add(key)
             self.get_logger().warning(text + ' (reported once)')
+
+
+class ConfiguredNode(SchemaParameters, Node):
+    """
+    A node configured from the shared schema at construction.
+
+    Declares the parameters of its ``role`` (:meth:`SchemaParameters.declare_schema`),
+    structural ones read-only, and validates them: subclasses read :attr:`system` after
+    ``super().__init__`` and implement :meth:`apply_system` to switch to a new validated
+    configuration at run time.
+
+    Raises
+    ------
+    ConfigError
+        From the constructor, naming the parameter, when the start-up configuration is bad.
+
+    """
+
+    def __init__(self, node_name: str, role: str, **kwargs) -> None:
+        super().__init__(node_name, **kwargs)
+        self.declare_schema(role)
+        self.system = validate_parameters(self.current_parameters())
 
 
 #: Executors a node can spin on (``--executor``); the first is the default, the fastest in
