@@ -87,10 +87,17 @@ def test_covariance_innovation_covariance_and_nis_come_stamped_like_x_hat():
         listener = Listener(driver, {'x_hat': JointState, 'x_hat_covariance': JointState,
                                      'innovation_covariance': JointState, 'nis': JointState})
         with executor_with(context, observer, driver) as executor:
-            assert spin_until(executor, lambda: observer.count_publishers('y') >= 1 and
-                              driver.count_subscribers('nis') >= 1, 10.0)
+            # Every output matched before the first y: each list then starts at the same one.
+            topics = list(listener.messages)
+            assert spin_until(executor, lambda: observer.count_publishers('y') >= 1 and all(
+                observer.count_subscribers(topic) >= 1 for topic in topics), 10.0)
             sent = drive(observer, driver, executor, 0.5)
-            assert spin_until(executor, lambda: len(listener.messages['nis']) >= sent - 2, 5.0)
+            # On a loaded machine some y are lost before the observer takes them (best-effort
+            # queue of 10); what matters is that every x_hat comes with its P, S and NIS.
+            counts = lambda: {len(listener.messages[topic]) for topic in topics}  # noqa: E731
+            assert spin_until(executor, lambda: len(counts()) == 1 and
+                              min(counts()) >= min(10, sent - 2), 5.0), counts()
+            spin_until(executor, lambda: False, 0.2)  # nothing else was on its way
     stamps = {topic: [stamp_to_ns(m.header.stamp) for _, m in messages]
               for topic, messages in listener.messages.items()}
     assert stamps['x_hat'] == stamps['x_hat_covariance'] == stamps['nis'] == (
