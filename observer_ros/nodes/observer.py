@@ -35,7 +35,7 @@ from observer_ros.config import OBSERVER
 from observer_ros.core.errors import ConfigError, ObserverRosError
 from observer_ros.core.placement import preload_methods
 from observer_ros.core.streaming import EstimateSample, within_limit
-from observer_ros.ros.diagnostics import DiagnosticsPublisher
+from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import MalformedMessage, VectorCodec
 from observer_ros.ros.parameters import ConfiguredNode, run_node
 
@@ -78,7 +78,11 @@ class ObserverNode(ConfiguredNode):
         self._clock_floor = (0, 0)
         self.wait_timer.cancel()
         self._waiting_for = None
-        self.diagnostics = DiagnosticsPublisher(self, self.counters)
+        monitors = {'y': monitor(system, 'y', 0.0)}
+        if system.model.n_inputs:
+            monitors['u'] = monitor(system, 'u', 0.0, minimum_only=True)
+        self.health = NodeHealth(self, monitors, self.counters, estimator=True)
+        self.diagnostics = self.health.publisher
         rate = system.parameters['observer.publish_rate']
         self.prediction_timer = (self.create_timer(1.0 / rate, self._on_prediction_time)
                                  if rate else None)
@@ -151,6 +155,8 @@ class ObserverNode(ConfiguredNode):
             self.node_counters['malformed'] += 1
             self.warn_once(f'malformed {topic}', f'dropped a malformed message: {e}')
             return None, None
+        if topic in self.health.monitors:
+            self.health.tick(topic, stamp)
         if stamp is None:
             if self.codecs[topic].stamped:
                 self.warn_once(f'zero stamp {topic}',
@@ -239,6 +245,7 @@ class ObserverNode(ConfiguredNode):
             stamp = sample.stamp_ns
             self._last_published_ns = max(self._last_published_ns, stamp)
             self._publish_on('innovation', stamp, sample.innovation)
+            self.health.sample(sample.innovation, sample.nis, sample.covariance)
             if sample.covariance is not None:
                 self._publish_on('x_hat_covariance', stamp, np.ravel(sample.covariance))
             if sample.innovation_covariance is not None:
