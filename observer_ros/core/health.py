@@ -185,7 +185,7 @@ class InputMonitor:
         return None  # stamps that went back (a restart)
 
     def age(self, now_ns: int) -> Optional[float]:
-        """Return the seconds since the latest message (None: none yet)."""
+        """Return how long ago the latest message came, in seconds (None: none yet)."""
         if self.last_arrival_ns is None:
             return None
         return (now_ns - self.last_arrival_ns) / NANOSECONDS
