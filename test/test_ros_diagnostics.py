@@ -89,8 +89,13 @@ def test_stale_measurement_raises_the_inputs_level_and_clears_when_it_resumes():
                 listener.statuses[name][since:])
 
 
-def _nis_reports(measurement_noise: float) -> list:
-    """Run a real-time plant with that measurement noise into the Kalman observer."""
+def _nis_reports(measurement_noise: float, corrected: bool = False) -> tuple:
+    """
+    Run a real-time plant with that measurement noise into the Kalman observer (R = 1e-4).
+
+    Returns the estimator reports with a full NIS window and, with ``corrected``, those
+    after ``observer.measurement_noise`` was set to the plant's at run time.
+    """
     with ros_context('--params-file', KALMAN) as context:
         observer = ObserverNode(context=context, parameter_overrides=overrides(
             diagnostics__period=0.2, diagnostics__nis_window=50,
@@ -100,26 +105,40 @@ def _nis_reports(measurement_noise: float) -> list:
             plant__wait_for_command=False, plant__measurement_noise=[measurement_noise]))
         name = '/observer: estimator'
 
-        def full_reports():
-            return [r for r in listener.statuses.get(name, []) if r[2]['nis.samples'] == '50']
+        def full_reports(since=0):
+            return [r for r in listener.statuses.get(name, [])[since:]
+                    if r[2]['nis.samples'] == '50']
 
+        after = []
         with executor_with(context, observer, listener, plant) as executor:
             assert spin_until(executor, lambda: len(full_reports()) >= 5, 30.0), (
                 listener.statuses.get(name))
-        return full_reports()
+            reports = full_reports()
+            if corrected:
+                result, = observer.set_parameters(overrides(
+                    observer__measurement_noise=[measurement_noise]))
+                assert result.successful, result.reason
+                since = listener.count(name)
+                assert spin_until(executor, lambda: len(full_reports(since)) >= 3, 30.0), (
+                    listener.statuses[name][since:])
+                after = full_reports(since)
+        return reports, after
 
 
 def test_nis_violation_with_a_too_small_measurement_noise_warns():
-    reports = _nis_reports(1e-2)  # the data: 100 times the configured R = 1e-4
+    # The data: 100 times the configured R = 1e-4; then R is corrected at run time.
+    reports, after = _nis_reports(1e-2, corrected=True)
     assert any(level == 'WARN' for level, _, _ in reports), reports
     level, message, values = next(r for r in reports if r[0] == 'WARN')
     assert message.startswith('NIS mean ') and 'above the 99.9% bound' in message, message
     assert message.endswith('over 50 samples: R or Q too small (or a model error)')
     assert float(values['nis.mean']) > 10 * float(values['nis.bound_high'])
+    # The window restarts with the new filter: no old NIS value keeps it above the bound.
+    assert [level for level, _, _ in after] == ['OK'] * len(after), after
 
 
 def test_nis_with_the_configured_measurement_noise_stays_ok():
-    reports = _nis_reports(1e-4)
+    reports, _ = _nis_reports(1e-4)
     assert all(level == 'OK' for level, _, _ in reports), reports
     low, high = float(reports[0][2]['nis.bound_low']), float(reports[0][2]['nis.bound_high'])
     assert all(low <= float(values['nis.mean']) <= high for _, _, values in reports)

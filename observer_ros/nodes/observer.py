@@ -17,7 +17,8 @@
 
 Also publishes ``innovation`` (``y - C x_hat_prior``) and, for a Kalman filter,
 ``x_hat_covariance`` (``P``, n x n row-major), ``innovation_covariance`` (``S``, p x p) and
-``nis`` (``v^T S^-1 v``), each stamped like the ``x_hat`` it belongs to; counters on
+``nis`` (``v^T S^-1 v``), each stamped like the ``x_hat`` it belongs to; its health
+(configuration, inputs, estimator: :mod:`observer_ros.ros.diagnostics`) on
 ``/diagnostics``; offers ``~/reset`` (``std_srvs/Trigger``). With ``observer.publish_rate``
 it also publishes, at that rate on its clock, the estimate (and covariance) predicted to that
 time.
@@ -120,6 +121,7 @@ class ObserverNode(ConfiguredNode):
         """Switch gains without touching the estimate (no jump in x_hat)."""
         estimator = self.stream.estimator
         estimator.adopt(system.make_estimator())
+        self.health.restart_nis()
         estimator.initial_state = system.initial_estimate
         self.stream.clock_tolerance_ns = round(
             system.parameters['observer.clock_tolerance'] * NANOSECONDS)

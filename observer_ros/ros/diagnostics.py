@@ -154,13 +154,18 @@ class NodeHealth:
         self.estimator = estimator
         system = node.system
         params = system.parameters
-        window = params.get('diagnostics.nis_window', 50)
+        window = params['diagnostics.nis_window']
         self.innovations = deque(maxlen=window)
         self.nis = (NisWindow(window, system.model.n_outputs,
                               params['diagnostics.nis_confidence'])
                     if estimator and system.observer_type == 'kalman' else None)
         self.covariance = None
         self.publisher = DiagnosticsPublisher(node, self.checks)
+
+    def restart_nis(self) -> None:
+        """Forget the NIS window (the filter changed: its old values test another one)."""
+        if self.nis is not None:
+            self.nis.clear()
 
     def tick(self, topic: str, stamp_ns: Optional[int]) -> None:
         """Count a decoded message on ``topic`` (unstamped: stamped with its arrival)."""
