@@ -20,11 +20,13 @@ import signal
 import subprocess
 import time
 
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 import numpy as np
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.qos import QoSProfile
 from sensor_msgs.msg import JointState
 
 from conftest import CONFIG_DIR, console_script
@@ -93,6 +95,43 @@ class NodeProcess:
             self.process.kill()
             out, err = self.process.communicate()
         return self.process.returncode, out, err
+
+
+#: ``DiagnosticStatus`` levels by name.
+LEVELS = {DiagnosticStatus.OK: 'OK', DiagnosticStatus.WARN: 'WARN',
+          DiagnosticStatus.ERROR: 'ERROR'}
+
+
+class DiagnosticsListener(Node):
+    """Keep every status received on ``/diagnostics``, by name."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__('diagnostics_listener', **kwargs)
+        self.statuses: dict = {}
+        self.hardware_ids: dict = {}
+        self.create_subscription(DiagnosticArray, '/diagnostics', self._on_message,
+                                 QoSProfile(depth=100))
+
+    def _on_message(self, message) -> None:
+        for status in message.status:
+            values = {item.key: item.value for item in status.values}
+            self.statuses.setdefault(status.name, []).append(
+                (LEVELS[status.level], status.message, values))
+            self.hardware_ids[status.name] = status.hardware_id
+
+    def latest(self, name: str):
+        """Return the latest ``(level, message, values)`` of a status (None: none yet)."""
+        reports = self.statuses.get(name)
+        return reports[-1] if reports else None
+
+    def count(self, name: str) -> int:
+        """Return the number of reports of a status so far."""
+        return len(self.statuses.get(name, ()))
+
+    def level_is(self, name: str, level: str, since: int = 0, text: str = '') -> bool:
+        """Whether a report after the first ``since`` has ``level`` and contains ``text``."""
+        return any(found == level and text in message
+                   for found, message, _ in self.statuses.get(name, [])[since:])
 
 
 def offline_estimates(system, recorder):

@@ -249,6 +249,33 @@ PLANT_PARAMETERS = (
 )
 
 
+DIAGNOSTICS = (
+    _seconds('diagnostics.period', 1.0, 'Steady-clock seconds between two health reports on '
+             '/diagnostics (configuration, inputs and, for the observer, estimator status); '
+             '0 publishes none (0 ... 3600).', 0.0, 3600.0, ALL_NODES),
+    _spec('diagnostics.hardware_id', STRING, '', 'hardware_id of the diagnostic statuses of '
+          'the node; empty (the default): the fully qualified node name '
+          '(/robot1/observer).'),
+    _spec('diagnostics.expected_rate', DOUBLE, 0.0, 'Hz the inputs (y and u; x_hat; u_cmd) '
+          'are expected at: 0 (the default) follows the plant rate (plant.rate_hz for the '
+          'plant, else 1 / model.dt for a discrete model, 100 Hz for a continuous one) '
+          '(0 ... 100000).', low=0.0, high=100000.0, unit='a rate in Hz'),
+    _spec('diagnostics.rate_tolerance', DOUBLE, 0.5, 'Relative error of the measured rate of an '
+          'input (from its stamps) beyond which the inputs status warns: 0.5 accepts 50 ... '
+          '150 Hz for 100 Hz (0.01 ... 100).', low=0.01, high=100.0),
+    _seconds('diagnostics.stale_timeout', 0.0, 'Steady-clock seconds without a message after '
+             'which an input is stale (ERROR); 0 (the default): 10 expected periods, at least '
+             '0.5 s, for y and u; feedback.timeout for x_hat; plant.command_timeout for u_cmd '
+             '(0 ... 3600).', 0.0, 3600.0, ALL_NODES),
+    _spec('diagnostics.nis_window', INTEGER, 50, 'Kalman filter: NIS samples whose mean is '
+          'checked against its two-sided chi-square bounds (2 ... 100000).', _OBS, low=2,
+          high=100000, unit='a count'),
+    _spec('diagnostics.nis_confidence', DOUBLE, 0.99, 'Kalman filter: two-sided probability '
+          'of the NIS bounds; a window mean outside them warns (0.5 ... 0.999999).', _OBS,
+          low=0.5, high=0.999999),
+)
+
+
 def _topic_parameters(topic: str, names: str, nodes: tuple) -> tuple:
     limit = COVARIANCE_LIMIT if names.endswith('pair') else VALUE_LIMIT
     entries = {'state pair': 'entries named "<state>,<state>" (row-major)',
@@ -273,7 +300,7 @@ def _topic_parameters(topic: str, names: str, nodes: tuple) -> tuple:
 
 PARAMETERS = (MODEL + OBSERVER_STREAM
               + tuple(_on(_OBS, argument, 'observer.') for argument in observer_arguments())
-              + FEEDBACK_PARAMETERS + LIFECYCLE_PARAMETERS + PLANT_PARAMETERS
+              + FEEDBACK_PARAMETERS + LIFECYCLE_PARAMETERS + PLANT_PARAMETERS + DIAGNOSTICS
               + tuple(spec for role in TOPIC_ROLES for spec in _topic_parameters(*role)))
 
 PARAMETER_SPECS = {spec.name: spec for spec in PARAMETERS}

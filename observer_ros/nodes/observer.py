@@ -17,7 +17,8 @@
 
 Also publishes ``innovation`` (``y - C x_hat_prior``) and, for a Kalman filter,
 ``x_hat_covariance`` (``P``, n x n row-major), ``innovation_covariance`` (``S``, p x p) and
-``nis`` (``v^T S^-1 v``), each stamped like the ``x_hat`` it belongs to; counters on
+``nis`` (``v^T S^-1 v``), each stamped like the ``x_hat`` it belongs to; its health
+(configuration, inputs, estimator: :mod:`observer_ros.ros.diagnostics`) on
 ``/diagnostics``; offers ``~/reset`` (``std_srvs/Trigger``). With ``observer.publish_rate``
 it also publishes, at that rate on its clock, the estimate (and covariance) predicted to that
 time.
@@ -35,7 +36,7 @@ from observer_ros.config import OBSERVER
 from observer_ros.core.errors import ConfigError, ObserverRosError
 from observer_ros.core.placement import preload_methods
 from observer_ros.core.streaming import EstimateSample, within_limit
-from observer_ros.ros.diagnostics import DiagnosticsPublisher
+from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import MalformedMessage, VectorCodec
 from observer_ros.ros.parameters import ConfiguredNode, run_node
 
@@ -82,7 +83,11 @@ class ObserverWiring:
         self._clock_floor = (0, 0)
         self.wait_timer.cancel()
         self._waiting_for = None
-        self.diagnostics = DiagnosticsPublisher(self, self.counters)
+        monitors = {'y': monitor(system, 'y', 0.0)}
+        if system.model.n_inputs:
+            monitors['u'] = monitor(system, 'u', 0.0, minimum_only=True)
+        self.health = NodeHealth(self, monitors, self.counters, estimator=True)
+        self.diagnostics = self.health.publisher
         rate = system.parameters['observer.publish_rate']
         self.prediction_timer = (self.create_timer(1.0 / rate, self._on_prediction_time)
                                  if rate else None)
@@ -134,6 +139,7 @@ class ObserverWiring:
         """Switch gains without touching the estimate (no jump in x_hat)."""
         estimator = self.stream.estimator
         estimator.adopt(system.make_estimator())
+        self.health.restart_nis()
         estimator.initial_state = system.initial_estimate
         self.stream.clock_tolerance_ns = round(
             system.parameters['observer.clock_tolerance'] * NANOSECONDS)
@@ -169,6 +175,8 @@ class ObserverWiring:
             self.node_counters['malformed'] += 1
             self.warn_once(f'malformed {topic}', f'dropped a malformed message: {e}')
             return None, None
+        if topic in self.health.monitors:
+            self.health.tick(topic, stamp)
         if stamp is None:
             if self.codecs[topic].stamped:
                 self.warn_once(f'zero stamp {topic}',
@@ -257,6 +265,7 @@ class ObserverWiring:
             stamp = sample.stamp_ns
             self._last_published_ns = max(self._last_published_ns, stamp)
             self._publish_on('innovation', stamp, sample.innovation)
+            self.health.sample(sample.innovation, sample.nis, sample.covariance)
             if sample.covariance is not None:
                 self._publish_on('x_hat_covariance', stamp, np.ravel(sample.covariance))
             if sample.innovation_covariance is not None:

@@ -51,7 +51,7 @@ from rosgraph_msgs.msg import Clock as ClockMessage
 from observer_ros.config import PLANT
 from observer_ros.core.simulation import PlantSimulator
 from observer_ros.core.streaming import within_limit
-from observer_ros.ros.diagnostics import DiagnosticsPublisher
+from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import MalformedMessage, ns_to_stamp, VectorCodec
 from observer_ros.ros.parameters import ConfiguredNode, publisher_qos, run_node
 
@@ -103,7 +103,11 @@ class PlantSimulatorNode(ConfiguredNode):
         self.stamp_ns = 0
         self.counters: Counter = Counter()
         self.finished = Future()
-        self.diagnostics = DiagnosticsPublisher(self, lambda: self.counters)
+        self.health = NodeHealth(
+            self, {'u_cmd': monitor(system, 'u_cmd', plant.command_timeout,
+                                    required=self.wait_for_command, minimum_only=True)},
+            lambda: self.counters)
+        self.diagnostics = self.health.publisher
         self.steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.peers_seen_ns = None
         self.waiting_since_ns = self.steady.now().nanoseconds
@@ -121,6 +125,7 @@ class PlantSimulatorNode(ConfiguredNode):
             self.counters['malformed'] += 1
             self.warn_once('malformed u_cmd', f'dropped a malformed command: {e}')
             return
+        self.health.tick('u_cmd', stamp)
         if not within_limit(command, self.command_limit):
             self.counters['out_of_range'] += 1
             self.warn_once('u_cmd out of range', f'dropped u_cmd {command.tolist()}: a value '

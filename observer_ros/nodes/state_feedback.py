@@ -45,7 +45,7 @@ from observer_ros.core.control import StateFeedbackLaw
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.placement import preload_methods
 from observer_ros.core.streaming import within_limit
-from observer_ros.ros.diagnostics import DiagnosticsPublisher
+from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import LATEST_STAMP_NS, MalformedMessage, VectorCodec
 from observer_ros.ros.parameters import ConfiguredNode, run_node
 
@@ -97,7 +97,12 @@ class StateFeedbackWiring:
         self.repeat_timer = self.create_timer(feedback.safe_command_period,
                                               self._publish_safe_command, clock=steady,
                                               autostart=False)
-        self.diagnostics = DiagnosticsPublisher(self, lambda: self.counters)
+        self.health = NodeHealth(
+            self, {'x_hat': monitor(system, 'x_hat', feedback.timeout, minimum_only=True),
+                   'reference': monitor(system, 'reference', 0.0, required=False,
+                                        rated=False)},
+            lambda: self.counters)
+        self.diagnostics = self.health.publisher
         self.get_logger().info(f'K = {feedback.design.gain.tolist()}')
         if feedback.disturbance_gain is not None and feedback.disturbance_gain.any():
             self.get_logger().info(f'K_d = {feedback.disturbance_gain.tolist()} (disturbance '
@@ -129,6 +134,7 @@ class StateFeedbackWiring:
             self.counters['malformed'] += 1
             self.warn_once(f'malformed {topic}', f'dropped a malformed message: {e}')
             return None, None
+        self.health.tick(topic, stamp)
         if not within_limit(vector, self.limits[topic]):
             self.counters['out_of_range'] += 1
             self.warn_once(f'{topic} out of range',

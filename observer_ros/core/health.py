@@ -1,0 +1,465 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Health checks of a running node, without ROS: input rates, stale inputs, NIS windows.
+
+The nodes publish these as ``diagnostic_msgs/DiagnosticStatus`` entries; here each check is
+a :class:`Check` (level, a message a person understands, and ``(key, value)`` pairs). The
+levels are those of ``DiagnosticStatus``: :data:`OK`, :data:`WARN`, :data:`ERROR`.
+
+- :class:`InputMonitor`: the rate of one input topic measured from its stamps (data time,
+  so a lockstep or replayed run measures the simulated rate) against the expected rate, and
+  the age of its latest message on the steady clock (a stale input).
+- :class:`NisWindow`: the mean NIS over the last ``N`` samples against its two-sided
+  chi-square bounds (:func:`nis_bounds`), the consistency test of a Kalman filter.
+- :class:`CounterWatch`: counters that grew since the last report (dropped or repaired
+  data), by reason.
+"""
+
+from collections import Counter, deque
+from dataclasses import dataclass, field
+from functools import lru_cache
+import math
+from typing import Iterable, Mapping, Optional, Sequence
+
+import numpy as np
+
+from observer_ros.core.analysis import format_modes, observability
+
+#: Levels of ``diagnostic_msgs/DiagnosticStatus``.
+OK, WARN, ERROR = 0, 1, 2
+LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR'}
+
+NANOSECONDS = 1_000_000_000
+
+#: Counters of dropped or repaired input data: their growth warns in the inputs status.
+INPUT_WARNING_COUNTERS = ('malformed', 'out_of_range', 'future_stamp', 'duplicate',
+                          'out_of_order', 'late_input', 'invalid_clock', 'lockstep_timeouts',
+                          'stale', 'unsafe_command', 'command_timeouts',
+                          'started_without_peers')
+
+#: Counters of estimator restarts and failed steps: their growth warns in the estimator status.
+ESTIMATOR_WARNING_COUNTERS = ('restart_gap', 'restart_backward_jump', 'estimate_reset',
+                              'step_failed')
+
+#: Every counter whose growth means data was lost or repaired.
+WARNING_COUNTERS = INPUT_WARNING_COUNTERS + ESTIMATOR_WARNING_COUNTERS
+
+#: Stale after this many expected periods when no timeout is configured ...
+STALE_PERIODS = 10
+#: ... but never sooner than this (seconds): scheduling jitter is not an outage.
+STALE_FLOOR = 0.5
+
+
+@dataclass(frozen=True)
+class Check:
+    """
+    One health report: what a ``DiagnosticStatus`` carries, without ROS.
+
+    Attributes
+    ----------
+    section : str
+        ``configuration``, ``inputs`` or ``estimator`` (the status is named
+        ``'<node>: <section>'``).
+    level : int
+        :data:`OK`, :data:`WARN` or :data:`ERROR`.
+    message : str
+        What is wrong, in words (``'ok'`` when nothing is).
+    values : tuple of (str, str)
+        The measured values and counters.
+
+    """
+
+    section: str
+    level: int
+    message: str
+    values: tuple = field(default_factory=tuple)
+
+
+def combine(section: str, findings: Iterable[tuple], values: Sequence[tuple]) -> Check:
+    """
+    Return one :class:`Check` from ``(level, text)`` findings: the worst level, its texts.
+
+    The message joins the texts of the findings at the worst level (``'; '``); ``'ok'``
+    when there are none above :data:`OK`.
+    """
+    findings = list(findings)
+    level = max((found for found, _ in findings), default=OK)
+    texts = [text for found, text in findings if found == level and found > OK]
+    return Check(section, level, '; '.join(texts) if texts else 'ok',
+                 tuple((key, str(value)) for key, value in values))
+
+
+def seconds_text(value: float) -> str:
+    """Format seconds for a message: ``2.3 s``, ``0.01 s``."""
+    return f'{value:.3g} s'
+
+
+def rate_text(value: float) -> str:
+    """Format a rate for a message: ``100 Hz``, ``9.5 Hz``."""
+    return f'{value:.3g} Hz'
+
+
+class InputMonitor:
+    """
+    Rate and age of one input topic.
+
+    Parameters
+    ----------
+    topic : str
+        The topic as the node names it (``'y'``), for the messages.
+    expected_rate : float or None
+        Hz the messages should come at (None: not judged, only measured).
+    stale_after : float
+        Steady-clock seconds without a message after which the input is stale.
+    tolerance : float
+        Relative rate error accepted: the measured rate may differ from the expected one by
+        this fraction (``0.5``: 50 ... 150 Hz for 100 Hz) before the check warns.
+    required : bool
+        A required input that never came or went stale is an :data:`ERROR` (a missing one a
+        :data:`WARN`); an optional one (``reference``) only reports its age.
+    minimum_only : bool
+        Judge only a rate below the expected one (``x_hat`` may come faster when the
+        observer also publishes predictions).
+
+    """
+
+    def __init__(self, topic: str, expected_rate: Optional[float], stale_after: float,
+                 tolerance: float = 0.5, required: bool = True,
+                 minimum_only: bool = False) -> None:
+        self.topic = topic
+        self.expected_rate = expected_rate
+        self.stale_after = float(stale_after)
+        self.tolerance = float(tolerance)
+        self.required = required
+        self.minimum_only = minimum_only
+        self.count = 0
+        self.last_arrival_ns: Optional[int] = None
+        self.started_ns: Optional[int] = None
+        self._last_stamp: Optional[int] = None
+        self._anchor: Optional[int] = None  # the last stamp of the previous report
+        self._first: Optional[int] = None  # the first stamp since the previous report
+        self._since = 0  # messages since the previous report
+        self.rate: Optional[float] = None
+
+    def start(self, now_ns: int) -> None:
+        """Mark when the node began waiting (the age of a never-seen input counts from it)."""
+        self.started_ns = now_ns
+
+    def tick(self, stamp_ns: int, arrival_ns: int) -> None:
+        """Count one message stamped ``stamp_ns`` that arrived at ``arrival_ns`` (steady)."""
+        self.count += 1
+        self._since += 1
+        self.last_arrival_ns = arrival_ns
+        if self._first is None:
+            self._first = stamp_ns
+        self._last_stamp = stamp_ns
+
+    def measured_rate(self) -> Optional[float]:
+        """
+        Measure the rate of the stamps since the previous call (Hz; None: not measurable).
+
+        Measured over the messages of the report alone, so a gap before them (an outage)
+        does not lower the rate once the input is back.
+        """
+        since, first, last, anchor = self._since, self._first, self._last_stamp, self._anchor
+        self._since, self._first, self._anchor = 0, None, last
+        if since == 0 or last is None:
+            return None
+        if since >= 2 and last > first:  # k stamps T apart span (k - 1) T
+            return (since - 1) * NANOSECONDS / (last - first)
+        if since == 1 and anchor is not None and last > anchor:  # a slow input
+            return NANOSECONDS / (last - anchor)
+        return None  # stamps that went back (a restart)
+
+    def age(self, now_ns: int) -> Optional[float]:
+        """Return how long ago the latest message came, in seconds (None: none yet)."""
+        if self.last_arrival_ns is None:
+            return None
+        return (now_ns - self.last_arrival_ns) / NANOSECONDS
+
+    def findings(self, now_ns: int) -> tuple:
+        """Return ``(findings, values)`` of this input at ``now_ns`` (steady clock)."""
+        topic, expected = self.topic, self.expected_rate
+        rate = self.measured_rate()
+        if rate is not None:
+            self.rate = rate
+        age = self.age(now_ns)
+        values = [(f'{topic}.count', self.count),
+                  (f'{topic}.rate_hz', 'none' if self.rate is None else f'{self.rate:.4g}'),
+                  (f'{topic}.expected_rate_hz', 'any' if expected is None else f'{expected:.4g}'),
+                  (f'{topic}.age_s', 'never' if age is None else f'{age:.3g}')]
+        expected_every = ('' if expected is None else
+                          f' (expected every {seconds_text(1.0 / expected)})')
+        bad = ERROR if self.required else OK
+        if age is None:
+            waited = (None if self.started_ns is None
+                      else (now_ns - self.started_ns) / NANOSECONDS)
+            if not self.required:
+                return [], values
+            since = '' if waited is None else f' in {seconds_text(waited)}'
+            level = ERROR if waited is not None and waited > self.stale_after else WARN
+            return [(level, f'no {topic} received yet{since}{expected_every}')], values
+        if age > self.stale_after:
+            return [(bad, f'{topic} stale for {seconds_text(age)}{expected_every}')], values
+        if rate is not None and expected:
+            low, high = expected * (1 - self.tolerance), expected * (1 + self.tolerance)
+            if rate < low or (rate > high and not self.minimum_only):
+                return [(WARN, f'{topic} at {rate_text(rate)}, expected {rate_text(expected)}'
+                         f' (+-{self.tolerance:.0%})')], values
+        return [], values
+
+
+def stale_timeout(configured: float, expected_rate: Optional[float]) -> float:
+    """
+    Return the stale timeout in seconds: ``configured`` when above 0, else automatic.
+
+    Automatic: :data:`STALE_PERIODS` expected periods, at least :data:`STALE_FLOOR` s.
+    """
+    if configured > 0:
+        return configured
+    if not expected_rate:
+        return STALE_FLOOR
+    return max(STALE_PERIODS / expected_rate, STALE_FLOOR)
+
+
+@lru_cache(maxsize=64)
+def nis_bounds(window: int, outputs: int, confidence: float = 0.99) -> tuple:
+    """
+    Two-sided bounds of the mean of ``window`` NIS values of a consistent filter.
+
+    Each NIS of a consistent Kalman filter with ``outputs`` measurements is chi-square with
+    ``outputs`` degrees of freedom; their sum over ``window`` independent samples is
+    chi-square with ``window * outputs``, so the mean lies between the returned bounds
+    with probability ``confidence``.
+
+    Parameters
+    ----------
+    window : int
+        Number of NIS samples averaged (``N >= 1``).
+    outputs : int
+        Measurement dimension ``p >= 1``.
+    confidence : float
+        Two-sided probability in (0, 1).
+
+    Returns
+    -------
+    tuple of float
+        ``(low, high)`` bounds of the mean NIS.
+
+    Raises
+    ------
+    ValueError
+        Naming the argument out of range.
+
+    Examples
+    --------
+    >>> low, high = nis_bounds(50, 1, 0.99)
+    >>> round(low, 3), round(high, 3)
+    (0.56, 1.59)
+
+    """
+    if window < 1:
+        raise ValueError(f'window: expected at least 1 sample, got {window}')
+    if outputs < 1:
+        raise ValueError(f'outputs: expected at least 1, got {outputs}')
+    if not 0 < confidence < 1:
+        raise ValueError(f'confidence: expected a probability in (0, 1), got {confidence}')
+    from scipy.stats import chi2  # scipy.stats is slow to import: only when it is used
+    dof = window * outputs
+    tail = (1 - confidence) / 2
+    return float(chi2.ppf(tail, dof)) / window, float(chi2.ppf(1 - tail, dof)) / window
+
+
+class NisWindow:
+    """
+    The last ``window`` NIS values and their chi-square consistency test.
+
+    Parameters
+    ----------
+    window : int
+        Samples averaged.
+    outputs : int
+        Measurement dimension ``p``.
+    confidence : float
+        Two-sided confidence of the bounds (:func:`nis_bounds`).
+
+    """
+
+    def __init__(self, window: int, outputs: int, confidence: float = 0.99) -> None:
+        self.window = int(window)
+        self.outputs = int(outputs)
+        self.confidence = float(confidence)
+        self.low, self.high = nis_bounds(self.window, self.outputs, self.confidence)
+        self.values: deque = deque(maxlen=self.window)
+
+    def add(self, nis: float) -> None:
+        """Add one NIS value."""
+        self.values.append(nis)
+
+    def clear(self) -> None:
+        """Forget the values (after an estimator restart)."""
+        self.values.clear()
+
+    def findings(self) -> tuple:
+        """Return ``(findings, values)``: the window mean against the bounds."""
+        count = len(self.values)
+        mean = math.fsum(self.values) / count if count else math.nan
+        bound = f'{self.confidence:.4g}'.rstrip('0')
+        values = [('nis.mean', 'none' if not count else f'{mean:.4g}'),
+                  ('nis.samples', count), ('nis.window', self.window),
+                  ('nis.bound_low', f'{self.low:.4g}'), ('nis.bound_high', f'{self.high:.4g}'),
+                  ('nis.confidence', bound)]
+        if count < self.window:
+            return [], values
+        over = f'over {count} samples'
+        percent = f'{self.confidence * 100:.4g}%'
+        if not math.isfinite(mean):
+            return [(ERROR, f'NIS mean is not finite {over}')], values
+        if mean > self.high:
+            return [(WARN, f'NIS mean {mean:.3g} above the {percent} bound {self.high:.3g} '
+                     f'{over}: R or Q too small (or a model error)')], values
+        if mean < self.low:
+            return [(WARN, f'NIS mean {mean:.3g} below the {percent} bound {self.low:.3g} '
+                     f'{over}: R or Q too large')], values
+        return [], values
+
+
+class CounterWatch:
+    """
+    Counters that grew since the previous report, by reason.
+
+    Parameters
+    ----------
+    watched : sequence of str
+        The counter names whose growth warns.
+    what : str
+        What grew, for the message (``'inputs dropped or repaired'``).
+
+    """
+
+    def __init__(self, watched: Sequence[str], what: str) -> None:
+        self.watched = tuple(watched)
+        self.what = what
+        self._previous: Counter = Counter()
+
+    def findings(self, counters: Mapping[str, int]) -> list:
+        """Return the ``(WARN, text)`` finding when a watched counter grew (else none)."""
+        grown = {key: counters.get(key, 0) - self._previous.get(key, 0) for key in self.watched}
+        self._previous = Counter({key: counters.get(key, 0) for key in self.watched})
+        grown = {key: value for key, value in grown.items() if value > 0}
+        if not grown:
+            return []
+        reasons = ', '.join(f'{value} {key}' for key, value in sorted(grown.items()))
+        return [(WARN, f'{self.what} since the last report: {reasons}')]
+
+
+def poles_text(poles) -> str:
+    """Format poles for a value: ``-3+3j, -3-3j`` (``none`` when there are none)."""
+    if poles is None or len(poles) == 0:
+        return 'none'
+    return format_modes(poles)
+
+
+def unstable(poles, discrete: bool) -> bool:
+    """Whether a pole lies on or beyond the stability boundary."""
+    poles = np.asarray(poles, dtype=complex)
+    if discrete:
+        return bool(np.any(np.abs(poles) >= 1.0))
+    return bool(np.any(poles.real >= 0.0))
+
+
+def configuration_check(model, observer_kind: Optional[str], observer_poles,
+                        feedback_poles=None, closed_loop_poles=None,
+                        notes: Sequence[str] = (), extra: Sequence[tuple] = ()) -> Check:
+    """
+    Return the configuration status of a node's validated design.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    observer_kind : str or None
+        ``observer.type`` (None for a node without an observer).
+    observer_poles : array_like or None
+        Achieved observer poles.
+    feedback_poles : array_like or None
+        Achieved poles of ``A - B K``.
+    closed_loop_poles : array_like or None
+        Poles of the observer-based closed loop.
+    notes : sequence of str
+        Warnings of the validation (an unstable controller): each is a :data:`WARN`.
+    extra : sequence of (str, object)
+        More values to show.
+
+    """
+    report = observability(model.a, model.c)
+    discrete = model.is_discrete
+    values = [('model', f'n={model.n_states} m={model.n_inputs} p={model.n_outputs} '
+               + (f'dt={model.dt:g} s' if discrete else 'continuous')),
+              ('observable', str(report.full_rank).lower()),
+              ('observability_rank', f'{report.rank}/{model.n_states}')]
+    findings = [(WARN, note) for note in notes]
+    if observer_kind is not None:
+        values += [('observer_type', observer_kind),
+                   ('observer_poles', poles_text(observer_poles))]
+        if not report.full_rank:
+            findings.append((ERROR, f'(A, C) is not observable: the modes '
+                             f'{format_modes(report.lost_modes)} cannot be seen'))
+        if observer_poles is not None and len(observer_poles) and unstable(observer_poles,
+                                                                           discrete):
+            findings.append((ERROR, 'the observer is unstable: a pole is on or beyond the '
+                             'stability boundary'))
+    if feedback_poles is not None:
+        values.append(('feedback_poles', poles_text(feedback_poles)))
+    if closed_loop_poles is not None:
+        values.append(('closed_loop_poles', poles_text(closed_loop_poles)))
+        if len(closed_loop_poles) and unstable(closed_loop_poles, discrete):
+            findings.append((ERROR, 'the closed loop is unstable'))
+    values += list(extra)
+    return combine('configuration', findings, values)
+
+
+def innovation_values(innovations: Sequence[float]) -> tuple:
+    """
+    Return ``(findings, values)`` of the squared innovation norms of the last samples.
+
+    Shows the latest ``|v|`` and the RMS over the samples; a non-finite one is an
+    :data:`ERROR`.
+    """
+    if not innovations:
+        return [], [('innovation.norm', 'none'), ('innovation.rms', 'none')]
+    last = math.sqrt(innovations[-1]) if innovations[-1] >= 0 else math.nan
+    rms = math.sqrt(math.fsum(innovations) / len(innovations))
+    values = [('innovation.norm', f'{last:.4g}'), ('innovation.rms', f'{rms:.4g}'),
+              ('innovation.samples', len(innovations))]
+    if not (math.isfinite(last) and math.isfinite(rms)):
+        return [(ERROR, 'the innovation is not finite')], values
+    return [], values
+
+
+def covariance_values(trace: Optional[float]) -> tuple:
+    """Return ``(findings, values)`` of the trace of ``P`` (None: the filter has no P)."""
+    if trace is None:
+        return [], []
+    values = [('covariance.trace', f'{trace:.4g}')]
+    if not math.isfinite(trace) or trace < 0:
+        return [(ERROR, f'the covariance trace is {trace:g}: the filter diverged')], values
+    return [], values
+
+
+__all__ = ['Check', 'CounterWatch', 'ERROR', 'ESTIMATOR_WARNING_COUNTERS',
+           'INPUT_WARNING_COUNTERS', 'InputMonitor', 'LEVEL_NAMES', 'NisWindow', 'OK', 'WARN',
+           'WARNING_COUNTERS', 'combine', 'configuration_check', 'covariance_values',
+           'innovation_values', 'nis_bounds', 'stale_timeout']
