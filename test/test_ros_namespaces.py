@@ -177,6 +177,8 @@ def test_two_observers_of_different_types_on_one_measurement():
     assert y_readers == set(estimates) | {f'rec_{name}' for name in estimates}
     for name, recorder in recorders.items():
         # The Kalman filter's own poles are slow (-2.9 +- 3.5j) and the plant is noisy.
-        late, start, _ = _converged(recorder, 2.0, rms=True)
-        assert start > 0.5, (name, start)
-        assert late < 0.1 * start, (name, late, start)
+        # The plant starts at [1, 0], both estimates at [0, 0]: an initial error of 1 (a
+        # recorder matched late may miss the first estimates, so not read off the record).
+        initial = np.linalg.norm(system.parameters['plant.initial_state'])
+        late, _, _ = _converged(recorder, 2.0, rms=True)
+        assert late < 0.1 * initial, (name, late)
