@@ -364,11 +364,12 @@ class StateSpaceModel:
         a_matrix = square_from_flat('A', a)
         n_states = a_matrix.shape[0]
         b_vector = _as_finite_vector('B', b)
-        if b_vector.size == 0 or b_vector.size % n_states:
+        if b_vector.size % n_states:
             raise ConfigError(
                 'B',
                 f'expected {n_states}xm (a multiple of {n_states} values, row-major, '
-                f'n = {n_states} from A), got {b_vector.size}')
+                f'n = {n_states} from A; none for a model without inputs), '
+                f'got {b_vector.size}')
         n_inputs = b_vector.size // n_states
         c_vector = _as_finite_vector('C', c)
         if c_vector.size == 0 or c_vector.size % n_states:

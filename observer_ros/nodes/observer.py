@@ -15,6 +15,9 @@
 """
 ``observer``: subscribe ``y`` and ``u``, publish the state estimate ``x_hat``.
 
+A model without inputs (``model.B`` empty, m = 0) subscribes ``y`` only: each measurement
+advances the estimate at once (nothing waits for an input).
+
 Also publishes ``innovation`` (``y - C x_hat_prior``) and, for a Kalman filter,
 ``x_hat_covariance`` (``P``, n x n row-major), ``innovation_covariance`` (``S``, p x p) and
 ``nis`` (``v^T S^-1 v``), each stamped like the ``x_hat`` it belongs to; counters on
@@ -62,6 +65,7 @@ class ObserverNode(ConfiguredNode):
         self.stream = system.make_stream()
         kalman = system.observer.kind == 'kalman'
         topics = ('y', 'u', 'x_hat', 'innovation') + (KALMAN_TOPICS if kalman else ())
+        inputs = system.model.n_inputs > 0  # without inputs (m = 0) no u is subscribed
         self.codecs = {topic: VectorCodec.for_topic(system, topic) for topic in topics}
         self.n_states, self.x_hat_codec = system.model.n_states, self.codecs['x_hat']
         self.node_counters: Counter = Counter()
@@ -69,7 +73,8 @@ class ObserverNode(ConfiguredNode):
         self.x_hat_publisher = self.publishers_['x_hat']
         self.limits = {topic: system.parameters[f'topics.{topic}.limit'] for topic in topics}
         self.topic_subscription(self.codecs['y'].message_class, 'y', self._on_measurement)
-        self.topic_subscription(self.codecs['u'].message_class, 'u', self._on_input)
+        if inputs:
+            self.topic_subscription(self.codecs['u'].message_class, 'u', self._on_input)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.input_wait_ns = round(system.parameters['observer.input_wait'] * NANOSECONDS)
         self.wait_timer = self.create_timer(  # the steady clock is time.monotonic_ns's
