@@ -18,6 +18,10 @@
 A model without inputs (``model.B`` empty, m = 0) subscribes ``y`` only: each measurement
 advances the estimate at once (nothing waits for an input).
 
+With ``observer.joint_names`` every published ``x_hat`` is also published on
+``joint_states_hat`` as a ``sensor_msgs/JointState`` with the same stamp, its ``position``,
+``velocity`` and ``effort`` filled from the states ``observer.joint_<field>_states`` choose.
+
 Also publishes ``innovation`` (``y - C x_hat_prior``) and, for a Kalman filter,
 ``x_hat_covariance`` (``P``, n x n row-major), ``innovation_covariance`` (``S``, p x p) and
 ``nis`` (``v^T S^-1 v``), each stamped like the ``x_hat`` it belongs to; counters on
@@ -32,6 +36,7 @@ from typing import Optional
 
 import numpy as np
 from rclpy.clock import Clock, ClockType
+from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
 from observer_ros.config import OBSERVER
@@ -39,7 +44,7 @@ from observer_ros.core.errors import ConfigError, ObserverRosError
 from observer_ros.core.placement import preload_methods
 from observer_ros.core.streaming import EstimateSample, within_limit
 from observer_ros.ros.diagnostics import DiagnosticsPublisher
-from observer_ros.ros.messages import MalformedMessage, VectorCodec
+from observer_ros.ros.messages import JointStatesEncoder, MalformedMessage, VectorCodec
 from observer_ros.ros.parameters import ConfiguredNode, run_node
 
 NANOSECONDS = 1_000_000_000
@@ -71,6 +76,10 @@ class ObserverNode(ConfiguredNode):
         self.node_counters: Counter = Counter()
         self.publishers_ = {topic: self._publisher(topic) for topic in topics[2:]}
         self.x_hat_publisher = self.publishers_['x_hat']
+        self.joint_states = None  # (encoder, publisher) of joint_states_hat, when configured
+        if system.joint_states is not None:
+            self.joint_states = (JointStatesEncoder(system.joint_states),
+                                 self.topic_publisher(JointState, 'joint_states_hat'))
         self.limits = {topic: system.parameters[f'topics.{topic}.limit'] for topic in topics}
         self.topic_subscription(self.codecs['y'].message_class, 'y', self._on_measurement)
         if inputs:
@@ -187,6 +196,8 @@ class ObserverNode(ConfiguredNode):
             return
         n = self.n_states
         self.x_hat_publisher.publish(self.x_hat_codec.encode(stamp, result[:n]))
+        if self.joint_states is not None:
+            self._publish_joint_states(stamp, result[:n])
         estimator = self.stream.estimator
         self._publish_rest([EstimateSample(stamp, None, result[n:], estimator.covariance,
                                            estimator.innovation_covariance, estimator.nis)])
@@ -233,7 +244,14 @@ class ObserverNode(ConfiguredNode):
         for sample in samples:  # x_hat first: a controller waits for it
             self.x_hat_publisher.publish(
                 self.codecs['x_hat'].encode(sample.stamp_ns, sample.estimate))
+            if self.joint_states is not None:
+                self._publish_joint_states(sample.stamp_ns, sample.estimate)
         self._publish_rest(samples)
+
+    def _publish_joint_states(self, stamp: int, estimate) -> None:
+        """Publish ``joint_states_hat`` of an estimate just published on ``x_hat``."""
+        encoder, publisher = self.joint_states
+        publisher.publish(encoder.encode(stamp, estimate))
 
     def _publish_rest(self, samples) -> None:
         """Publish what follows x_hat: events, innovation, covariances, NIS; prepare."""
@@ -276,6 +294,8 @@ class ObserverNode(ConfiguredNode):
             self.node_counters['out_of_range'] += 1
             return
         self.x_hat_publisher.publish(self.x_hat_codec.encode(now, prediction.estimate))
+        if self.joint_states is not None:
+            self._publish_joint_states(now, prediction.estimate)
         if prediction.covariance is not None:
             self._publish_on('x_hat_covariance', now, np.ravel(prediction.covariance))
         self.node_counters['predictions'] += 1
