@@ -28,7 +28,7 @@ from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 import yaml
 
-from bag_support import joint_state, JOINT_STATE, serialize, STORAGES, TYPESTORE
+from bag_support import JOINT_STATE, joint_state, serialize, STORAGES, TYPESTORE
 from observer_ros.bags.replay import reference_rmse, replay_bag, StateReference
 from observer_ros.config import validate_parameters
 from observer_ros.core.errors import ConfigError
@@ -62,8 +62,8 @@ def params(kind, **extra):
 @pytest.mark.parametrize('kind', sorted(TYPES))
 def test_velocity_from_positions_alone_converges_for_every_type(kind):
     system = validate_parameters(params(kind))
-    assert (system.model.n_inputs, system.model.b.shape, system.model.d.shape) == (0, (2, 0),
-                                                                                  (1, 0))
+    model = system.model
+    assert (model.n_inputs, model.b.shape, model.d.shape) == (0, (2, 0), (1, 0))
     stream = system.make_stream()
     velocity, samples = 0.7, []
     for k in range(150):  # nothing waits for an input: one estimate per measurement
@@ -214,4 +214,4 @@ def test_replay_of_joint_states_reports_the_velocity_rmse(tmp_path, storage, cap
                         '--reference', 'q_dot=/joint_states:speed:shoulder']) == 2
     errors = capsys.readouterr().err.splitlines()
     assert errors[0].startswith('replay: error: --u-topic: the model has no inputs')
-    assert errors[1].startswith("replay: error: --reference: expected a field in")
+    assert errors[1].startswith('replay: error: --reference: expected a field in')

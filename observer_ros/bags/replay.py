@@ -228,8 +228,8 @@ def reference_rmse(result: 'ReplayResult', reference: StateReference,
     if reference.state not in names:
         raise BagError(f'--reference: {reference.state!r} is no state of the model '
                        f'({", ".join(names)})')
-    (data,) = read_topics(result.bag, [TopicRequest(reference.topic, 'joint_state',
-                                                     reference.field, [reference.joint])])
+    request = TopicRequest(reference.topic, 'joint_state', reference.field, [reference.joint])
+    (data,) = read_topics(result.bag, [request])
     if result.use_log_time:
         data = log_timed(data)
     column = names.index(reference.state)

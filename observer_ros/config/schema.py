@@ -227,7 +227,7 @@ PLANT_PARAMETERS = (
              'outage); steady clock in real time, simulated time in lockstep. More than one '
              'sample period (0.001 ... 3600).', 0.001, 3600.0, _PL),
     _values('plant.input_offset', 'Constant input disturbance d added to the applied input '
-            '(x\' = A x + B (u + d)), m values; empty for none. u is published without it.',
+            "(x' = A x + B (u + d)), m values; empty for none. u is published without it.",
             _PL, limit=VALUE_LIMIT),
     _values('plant.safe_input', 'Input applied before the first command and after '
             'plant.command_timeout, m values (default zeros; inside plant.input_limits).', _PL,

@@ -386,12 +386,12 @@ def _feedback(params: dict, model: StateSpaceModel) -> Optional[FeedbackSettings
 
 def _joint_states(params: dict, model: StateSpaceModel) -> Optional[JointStateSelection]:
     names = tuple(params['observer.joint_names'])
-    fields = {field: params[f'observer.joint_{field}_states']
-              for field in ('position', 'velocity', 'effort')}
+    fields = {kind: params[f'observer.joint_{kind}_states']
+              for kind in ('position', 'velocity', 'effort')}
     if not names:
-        for field, states in fields.items():
+        for kind, states in fields.items():
             if states:
-                raise ConfigError(f'observer.joint_{field}_states', 'needs '
+                raise ConfigError(f'observer.joint_{kind}_states', 'needs '
                                   'observer.joint_names (the joints of joint_states_hat)')
         return None
     if len(set(names)) != len(names):
@@ -401,12 +401,12 @@ def _joint_states(params: dict, model: StateSpaceModel) -> Optional[JointStateSe
                           'observer.joint_position_states, observer.joint_velocity_states or '
                           'observer.joint_effort_states')
     chosen = {}
-    for field, states in fields.items():
-        parameter = f'observer.joint_{field}_states'
+    for kind, states in fields.items():
+        parameter = f'observer.joint_{kind}_states'
         if states and len(states) != len(names):
             raise ConfigError(parameter, f'expected {len(names)} states (one per joint of '
                               f'observer.joint_names), got {len(states)}')
-        chosen[field] = _indices(parameter, states, model.state_names, 'state')
+        chosen[kind] = _indices(parameter, states, model.state_names, 'state')
     return JointStateSelection(names, **chosen)
 
 

@@ -71,7 +71,7 @@ def value_limits(system) -> dict:
 
 
 def _integral_key(system) -> Optional[tuple]:
-    """What the integrator state depends on: it is reset when this changes."""
+    """Return what the integrator state depends on: it is reset when this changes."""
     design = system.feedback.integral
     if design is None:
         return None
