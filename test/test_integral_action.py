@@ -102,7 +102,7 @@ def predicted_output(system, reference, offset):
 
 
 def settled(y, period=0.01):
-    """The samples after :data:`SETTLED` seconds."""
+    """Return the samples after :data:`SETTLED` seconds."""
     return y[int(SETTLED / period):]
 
 
