@@ -34,7 +34,9 @@ from observer_ros.config import validate_parameters
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.evaluation import settling_time
 from observer_ros.nodes.observer import ObserverNode
+from observer_ros.nodes.plant_simulator import PlantSimulatorNode
 from observer_ros.ros.messages import JointStatesEncoder, ns_to_stamp
+from observer_ros.tools.design_observer import main as design_main
 from observer_ros.tools.replay import main as replay_main
 from ros_support import executor_with, overrides, ros_context, spin_until
 
@@ -160,6 +162,54 @@ def test_observer_node_without_u_publishes_x_hat_and_joint_states_hat():
         assert list(joint.velocity) == [sample.estimate[1]] == [estimate.position[1]]
         assert list(joint.effort) == []
     assert abs(joints[-1].velocity[0] - 0.5) < 1e-4  # 0.6 s after a start at rest
+
+
+def test_autonomous_plant_and_observer_run_without_any_input_topic():
+    values = params('full_order', **{'plant.initial_state': [0.1, 0.5], 'plant.samples': 40})
+    system = validate_parameters(values)
+    settings = overrides(**{name.replace('.', '__'): value for name, value in values.items()})
+    with ros_context() as context:
+        plant = PlantSimulatorNode(context=context, parameter_overrides=settings)
+        observer = ObserverNode(context=context, parameter_overrides=settings)
+        driver = Node('driver', context=context)
+        estimates, truth, measured = [], [], []
+        driver.create_subscription(JointState, 'x_hat', estimates.append, 100)
+        driver.create_subscription(JointState, 'x_true', truth.append, 100)
+        driver.create_subscription(JointState, 'y', measured.append, 100)
+        with executor_with(context, plant, observer, driver) as executor:
+            assert plant.command_subscription is None and 'u' not in plant.publishers_
+            assert spin_until(executor, lambda: plant.finished.done() and len(estimates) >= 40
+                              and len(truth) >= 40 and len(measured) >= 40, 15.0), (
+                len(estimates), len(truth), len(measured))
+            assert plant.count_publishers('u') == 0 and plant.count_subscribers('u_cmd') == 0
+    counters = plant.counters
+    assert counters['samples'] == 40 and counters.get('safe_input_samples', 0) == 0
+    assert counters.get('started_without_peers', 0) == 0  # no command was waited for
+    final = np.array(truth[-1].position)
+    assert final == pytest.approx([0.1 + 0.5 * 39 / system.plant.rate_hz, 0.5], abs=1e-12)
+    # The node's estimates are the core's from the same measurements, bit for bit.
+    stream, expected = system.make_stream(), []
+    for message in measured:
+        stamp = message.header.stamp.sec * 10**9 + message.header.stamp.nanosec
+        expected += stream.add_measurement(stamp, list(message.position))
+    assert [list(m.position) for m in estimates] == [s.estimate.tolist() for s in expected]
+    assert np.array(estimates[-1].position) == pytest.approx(final, abs=1e-3)
+
+
+def test_design_cli_prints_a_model_without_inputs_and_refuses_feedback(tmp_path, capsys):
+    section = {'model': {'A': [0.0, 1.0, 0.0, 0.0], 'B': [], 'C': [1.0, 0.0]},
+               'observer': {'type': 'reduced_order', 'poles': ['-20']}}
+    file = tmp_path / 'cv.yaml'
+    file.write_text(yaml.safe_dump({'/**': {'ros__parameters': section}}))
+    assert design_main([str(file)]) == 0
+    out = capsys.readouterr().out
+    assert 'n = 2, m = 0, p = 1' in out and 'Fhat = Bb - L Ba = (empty: 1 x 0)' in out
+    section['feedback'] = {'poles': ['-1', '-2']}
+    file.write_text(yaml.safe_dump({'/**': {'ros__parameters': section}}))
+    assert design_main([str(file)]) == 2
+    assert capsys.readouterr().err.strip() == (
+        'design_observer: error: feedback.poles: the model has no inputs (model.B is empty, '
+        'm = 0): state feedback is not available')
 
 
 def write_joint_bag(path, storage, samples=400):
