@@ -33,6 +33,7 @@ from observer_ros.bags.replay import reference_rmse, replay_bag, StateReference
 from observer_ros.config import validate_parameters
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.evaluation import settling_time
+from observer_ros.core.model import StateSpaceModel
 from observer_ros.nodes.observer import ObserverNode
 from observer_ros.nodes.plant_simulator import PlantSimulatorNode
 from observer_ros.ros.messages import JointStatesEncoder, ns_to_stamp
@@ -66,6 +67,8 @@ def test_velocity_from_positions_alone_converges_for_every_type(kind):
     system = validate_parameters(params(kind))
     model = system.model
     assert (model.n_inputs, model.b.shape, model.d.shape) == (0, (2, 0), (1, 0))
+    same = StateSpaceModel.from_matrices(model.a, [], model.c)
+    assert same.b.shape == (2, 0) and same.input_names == ()
     stream = system.make_stream()
     velocity, samples = 0.7, []
     for k in range(150):  # nothing waits for an input: one estimate per measurement

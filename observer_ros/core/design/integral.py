@@ -53,6 +53,14 @@ class IntegralDesign:
         Placement method (``'given'`` for given gains).
     residual : float
 
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[-1]], [[1]], [[1]], dt=0.0)
+    >>> design = oc.design_integral(model, [0], poles=[-2, -3])
+    >>> design.outputs, design.achieved_poles.real.round(6).tolist()
+    ((0,), [-3.0, -2.0])
+
     """
 
     gain: np.ndarray
