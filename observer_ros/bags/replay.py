@@ -37,7 +37,7 @@ from observer_ros.bags.storage import (
     absolute_topic, BagError, read_topics, STORAGES, TopicData, TopicRequest, TopicToWrite,
     write_bag)
 from observer_ros.config import load_parameter_file, System, validate_parameters
-from observer_ros.config.schema import topic_names
+from observer_ros.config.schema import JOINT_STATE_FIELDS, topic_names
 from observer_ros.core.evaluation import align
 
 NANOSECONDS = 1_000_000_000
@@ -181,6 +181,69 @@ class ReplayResult:
         return np.linalg.norm(reference - estimate, axis=1)
 
 
+@dataclass(frozen=True)
+class StateReference:
+    """
+    A recorded reference for one state: a field of one joint of a JointState topic.
+
+    Parse one from ``STATE=TOPIC:FIELD:JOINT`` with :meth:`parse` (``replay --reference``),
+    for example ``q_dot=/joint_states:velocity:shoulder``.
+    """
+
+    state: str
+    topic: str
+    field: str
+    joint: str
+
+    @classmethod
+    def parse(cls, text: str) -> 'StateReference':
+        """Parse ``STATE=TOPIC:FIELD:JOINT``; ValueError saying what was expected."""
+        state, _, rest = text.partition('=')
+        parts = rest.split(':')
+        if not state or len(parts) != 3 or not all(parts):
+            raise ValueError(f'--reference: expected STATE=TOPIC:FIELD:JOINT (for example '
+                             f'q_dot=/joint_states:velocity:shoulder), got {text!r}')
+        if parts[1] not in JOINT_STATE_FIELDS:
+            raise ValueError(f'--reference: expected a field in {", ".join(JOINT_STATE_FIELDS)}'
+                             f', got {parts[1]!r} in {text!r}')
+        return cls(state, *parts)
+
+
+def reference_rmse(result: 'ReplayResult', reference: StateReference,
+                   settle_s: float = 0.0) -> tuple:
+    """
+    Return ``(rmse, count)`` of one state against its recorded reference.
+
+    The estimates are compared at the stamps they share with the reference (log times with
+    ``use_log_time``); with ``settle_s`` only those at least that long after the first
+    estimate count.
+
+    Raises
+    ------
+    observer_ros.bags.storage.BagError
+        An unknown state, a topic the bag cannot give, or no shared stamp.
+
+    """
+    names = result.system.model.state_names
+    if reference.state not in names:
+        raise BagError(f'--reference: {reference.state!r} is no state of the model '
+                       f'({", ".join(names)})')
+    request = TopicRequest(reference.topic, 'joint_state', reference.field, [reference.joint])
+    (data,) = read_topics(result.bag, [request])
+    if result.use_log_time:
+        data = log_timed(data)
+    column = names.index(reference.state)
+    stamps, truth, estimate = align(data.stamps_ns, data.values[:, 0], result.stamps_ns,
+                                    result.estimates[:, column])
+    if len(stamps):
+        keep = stamps >= stamps[0] + int(settle_s * NANOSECONDS)
+        stamps, truth, estimate = stamps[keep], truth[keep], estimate[keep]
+    if not len(stamps):
+        raise BagError(f'{result.bag}: --reference: {reference.topic} and the estimates '
+                       f'share no stamp (after {settle_s:g} s of settling)')
+    return float(np.sqrt(np.mean((truth - estimate) ** 2))), len(stamps)
+
+
 def load_system(parameters: Union[str, os.PathLike, System]) -> System:
     """
     Return the validated system of a parameter file (or ``parameters`` itself).
@@ -216,7 +279,7 @@ def replay_bag(bag: Union[str, os.PathLike], parameters: Union[str, os.PathLike,
         ``topics.y.*`` and ``topics.u.*`` give the message types, fields and joint names.
     y_topic, u_topic : str
         Topic names in the bag (``y`` is ``/y``; a bag's ``y`` recorded without the slash
-        is found either way).
+        is found either way). A model without inputs (m = 0) reads no ``u_topic``.
     use_log_time : bool
         Stamp ``y`` and ``u`` (and the truth) with their log times, the recorder's clock,
         instead of their header stamps: for bags whose streams are stamped in different
@@ -232,8 +295,12 @@ def replay_bag(bag: Union[str, os.PathLike], parameters: Union[str, os.PathLike,
 
     """
     system = load_system(parameters)
-    outputs, inputs = read_topics(bag, [topic_request(system, 'y', y_topic),
-                                        topic_request(system, 'u', u_topic)])
+    if system.model.n_inputs == 0:  # no inputs: the measurements alone
+        (outputs,) = read_topics(bag, [topic_request(system, 'y', y_topic)])
+        inputs = TopicData(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 0)))
+    else:
+        outputs, inputs = read_topics(bag, [topic_request(system, 'y', y_topic),
+                                            topic_request(system, 'u', u_topic)])
     max_gap_ns = int(system.parameters['observer.max_gap'] * NANOSECONDS)
     input_stamped = system.parameters['topics.u.type'] == 'joint_state'
     if use_log_time:

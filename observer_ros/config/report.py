@@ -147,6 +147,10 @@ def design_summary(system: System) -> dict:
                                               else _rows(feedback.reference_gain))
         if feedback.disturbance_gain is not None:
             summary['feedback.disturbance_gain'] = _rows(feedback.disturbance_gain)
+        if feedback.integral is not None:
+            summary['feedback.integral_gain'] = _rows(feedback.integral.integral_gain)
+            summary['feedback.integral_outputs'] = [
+                system.model.output_names[i] for i in feedback.integral.outputs]
     if system.closed_loop_poles is not None:
         summary['closed_loop_poles'] = pole_pairs(system.closed_loop_poles)
     tf = system.controller_tf
@@ -164,6 +168,8 @@ def design_summary(system: System) -> dict:
 
 def _matrix_text(name: str, matrix) -> str:
     matrix = np.atleast_2d(np.asarray(matrix, dtype=float))
+    if not matrix.size:
+        return f'{name} = (empty: {matrix.shape[0]} x {matrix.shape[1]})\n'
     body = '\n'.join('    ' + '  '.join(f'{value:12.6g}' for value in row) for row in matrix)
     return f'{name} =\n{body}\n'
 
@@ -222,7 +228,16 @@ def format_report(system: System) -> str:
     if feedback is not None:
         out.append(f'\nState feedback (method {feedback.design.method})\n')
         out.append(_matrix_text('K', feedback.design.gain))
-        out.append(f'poles of A - B K = {_poles_text(feedback.design.achieved_poles)}\n')
+        if feedback.integral is not None:
+            integral = feedback.integral
+            names = [system.model.output_names[i] for i in integral.outputs]
+            out.append(_matrix_text(f'K_i (integral action on {", ".join(names)})',
+                                    integral.integral_gain))
+            augmented = '[A 0; -T C_i I]' if system.model.is_discrete else '[A 0; -C_i 0]'
+            out.append(f'poles of the augmented loop {augmented} = '
+                       f'{_poles_text(integral.achieved_poles)}\n')
+        else:
+            out.append(f'poles of A - B K = {_poles_text(feedback.design.achieved_poles)}\n')
         if feedback.reference_gain is not None:
             out.append(_matrix_text('N (reference gain)', feedback.reference_gain))
         if feedback.disturbance_gain is not None and feedback.disturbance_gain.any():

@@ -164,7 +164,15 @@ OBSERVER_STREAM = (
           'at this rate on its clock, the estimate predicted to that time with the latest '
           'input (and its covariance), stamped with that time; 0 publishes once per '
           'measurement (0 ... 1000).', _OBS, low=0.0, high=1000.0, unit='a rate in Hz'),
-)
+    _spec('observer.joint_names', STRING_ARRAY, [], 'Joints of the estimated joint states: '
+          'when given, every x_hat is also published as a sensor_msgs/JointState on '
+          'joint_states_hat (same stamp) with these joint names; empty: not published.',
+          _OBS),
+) + tuple(
+    _spec(f'observer.joint_{field}_states', STRING_ARRAY, [], f'States (names, or 0-based '
+          f'indices) copied into the {field} field of joint_states_hat, one per entry of '
+          f'observer.joint_names; empty: the field stays empty.', _OBS)
+    for field in JOINT_STATE_FIELDS)
 
 FEEDBACK_PARAMETERS = (
     _values('feedback.gain', _matrix('Given state-feedback gain K, m x n (u = -K x_hat + N r)'),
@@ -176,11 +184,24 @@ FEEDBACK_PARAMETERS = (
     _values('feedback.reference_gain', _matrix('Reference gain N, m x p; empty: unit DC gain '
                                                'when the plant is square'), _FB, dynamic=True),
     _values('feedback.input_limits', 'Command saturation: [min, max] or [min_1, max_1, ..., '
-            'min_m, max_m].', _FB, dynamic=True, limit=VALUE_LIMIT),
+            'min_m, max_m]. With integral action the integrator stops while the command is '
+            'saturated and its error pushes further out (conditional integration).', _FB,
+            dynamic=True, limit=VALUE_LIMIT),
     _spec('feedback.disturbance_rejection', BOOL, False,
           'u = -K x_hat - d_hat + N r: subtract the estimated matched input disturbances '
           '(model.disturbance_entries input:<name>) from their inputs; K covers the plant '
           'states only.', _FB, dynamic=True),
+    _spec('feedback.integral_outputs', STRING_ARRAY, [], 'Integral action: the outputs (names '
+          'or 0-based indices) whose tracking error r - y is integrated, at most m of them; '
+          'empty: every output when the plant is square (m = p), required otherwise.', _FB),
+    _spec('feedback.integral_poles', STRING_ARRAY, [], 'Integral action: the q poles of the '
+          'integrators, placed together with feedback.poles on the augmented model [A 0; '
+          '-C_i 0] (discrete: [A 0; -T C_i I]) as strings. With feedback.poles this designs K '
+          'and K_i; empty with an empty feedback.integral_gain: no integral action.', _FB,
+          dynamic=True),
+    _values('feedback.integral_gain', _matrix('Integral action: a given K_i, m x q, in u = -K '
+                                              'x_hat + K_i z (with feedback.gain)'), _FB,
+            dynamic=True),
     _seconds('feedback.timeout', 0.5, 'Steady-clock seconds without an accepted x_hat after '
              'which the safe command is published, with use_sim_time too (0.001 ... 3600).',
              0.001, 3600.0, _FB, dynamic=True),
@@ -234,6 +255,9 @@ PLANT_PARAMETERS = (
              'applies plant.safe_input until the next command (counted, warned once per '
              'outage); steady clock in real time, simulated time in lockstep. More than one '
              'sample period (0.001 ... 3600).', 0.001, 3600.0, _PL),
+    _values('plant.input_offset', 'Constant input disturbance d added to the applied input '
+            "(x' = A x + B (u + d)), m values; empty for none. u is published without it.",
+            _PL, limit=VALUE_LIMIT),
     _values('plant.safe_input', 'Input applied before the first command and after '
             'plant.command_timeout, m values (default zeros; inside plant.input_limits).', _PL,
             limit=VALUE_LIMIT),

@@ -33,6 +33,7 @@ from observer_ros.core.design.common import ObserverDesign
 from observer_ros.core.design.controller import (
     closed_loop_poles, controller_transfer_function, ControllerTransferFunction)
 from observer_ros.core.design.feedback import design_feedback, FeedbackDesign
+from observer_ros.core.design.integral import design_integral, IntegralDesign
 from observer_ros.core.disturbances import augment, augmented_noise, DisturbanceModel
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.estimators import StateEstimator
@@ -67,6 +68,7 @@ class PlantSettings:
     safe_input: np.ndarray
     disturbance: Optional[np.ndarray] = None
     disturbance_time: float = 0.0
+    input_offset: Optional[np.ndarray] = None
 
     @property
     def period_ns(self) -> int:
@@ -98,6 +100,27 @@ class FeedbackSettings:
         if self.disturbance_gain is None:
             return self.design.gain
         return np.hstack([self.design.gain, self.disturbance_gain])
+    integral: Optional[IntegralDesign] = None
+
+
+@dataclass(frozen=True)
+class JointStateSelection:
+    """
+    Validated ``observer.joint_*``: which states fill each field of ``joint_states_hat``.
+
+    Attributes
+    ----------
+    names : tuple of str
+        The joint names.
+    position, velocity, effort : tuple of int
+        State indices, one per joint, or empty (the field stays empty).
+
+    """
+
+    names: tuple
+    position: tuple = ()
+    velocity: tuple = ()
+    effort: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -128,6 +151,8 @@ class System:
         Warnings worth showing (an unstable controller, for instance).
     disturbance : DisturbanceModel or None
         The plant, its disturbances and the augmented model (``model.disturbances``).
+    joint_states : JointStateSelection or None
+        ``observer.joint_names`` and the states of each field, when given.
 
     """
 
@@ -147,6 +172,7 @@ class System:
     def plant_model(self) -> StateSpaceModel:
         """The plant without its disturbance states (what ``feedback.*`` is designed for)."""
         return self.model if self.disturbance is None else self.disturbance.plant
+    joint_states: Optional[JointStateSelection] = None
 
     @property
     def kind(self) -> ObserverType:
@@ -263,6 +289,9 @@ def _check_inside(parameter: str, vector: np.ndarray, limits, source: str) -> No
 
 
 def _limits(parameter: str, values, n_inputs: int):
+    if values and not n_inputs:
+        raise ConfigError(parameter, 'the model has no inputs (model.B is empty, m = 0): '
+                          'expected no limits')
     try:
         return input_limits_from_flat(values, n_inputs)
     except ConfigError as e:
@@ -306,6 +335,80 @@ def _disturbance_gain(params: dict, model: StateSpaceModel,
     return disturbance.rejection_gain()
 
 
+def _indices(parameter: str, entries, names: tuple, what: str) -> tuple:
+    """Return the indices of ``entries`` (names in ``names``, or 0-based indices)."""
+    indices = []
+    for entry in entries:
+        if entry in names:
+            indices.append(names.index(entry))
+        elif entry.isdigit() and int(entry) < len(names):
+            indices.append(int(entry))
+        else:
+            raise ConfigError(parameter, f'{entry!r} is no {what} of the model (expected one '
+                              f'of {list(names)} or an index 0 ... {len(names) - 1})')
+    return tuple(indices)
+
+
+def _integral_outputs(params: dict, model: StateSpaceModel) -> tuple:
+    given = params['feedback.integral_outputs']
+    if given:
+        outputs = _indices('feedback.integral_outputs', given, model.output_names, 'output')
+        if len(set(outputs)) != len(outputs):
+            raise ConfigError('feedback.integral_outputs', f'names an output twice: {given}')
+        if len(outputs) > model.n_inputs:
+            raise ConfigError('feedback.integral_outputs', f'{len(outputs)} integrated outputs '
+                              f'need at least as many inputs; the model has m = '
+                              f'{model.n_inputs}')
+        return outputs
+    if model.n_inputs != model.n_outputs:
+        raise ConfigError('feedback.integral_outputs', f'integral action on a non-square plant '
+                          f'(m = {model.n_inputs} inputs, p = {model.n_outputs} outputs) needs '
+                          f'the outputs to integrate: name at most {model.n_inputs} of '
+                          f'{list(model.output_names)}')
+    return tuple(range(model.n_outputs))
+
+
+def _integral(params: dict, model: StateSpaceModel, poles, gain) -> Optional[IntegralDesign]:
+    """Design the servo gains when integral action is asked for (None otherwise)."""
+    integral_text, integral_gain = (params['feedback.integral_poles'],
+                                    params['feedback.integral_gain'] or None)
+    if not integral_text and integral_gain is None:
+        if params['feedback.integral_outputs']:
+            raise ConfigError('feedback.integral_outputs', 'integral action needs '
+                              'feedback.integral_poles (with feedback.poles) or '
+                              'feedback.integral_gain (with feedback.gain)')
+        return None
+    if integral_text and integral_gain is not None:
+        raise ConfigError('feedback.integral_gain', 'give either feedback.integral_gain or '
+                          'feedback.integral_poles, not both')
+    if integral_gain is not None and gain is None:
+        raise ConfigError('feedback.integral_gain', 'a given K_i goes with a given '
+                          'feedback.gain; with feedback.poles give feedback.integral_poles')
+    if integral_text and gain is not None:
+        raise ConfigError('feedback.integral_poles', 'the integral poles are placed with '
+                          'feedback.poles; with a given feedback.gain give '
+                          'feedback.integral_gain')
+    outputs = _integral_outputs(params, model)
+    all_poles = None
+    if integral_text:
+        try:
+            integral_poles = parsed_poles({'poles': integral_text})
+        except ConfigError as e:
+            raise named(e, 'feedback', 'feedback.integral_poles') from e
+        if integral_poles.size != len(outputs):
+            raise ConfigError('feedback.integral_poles', f'expected {len(outputs)} poles (one '
+                              f'per integrated output), got {integral_poles.size}')
+        all_poles = np.concatenate([poles, integral_poles])
+    source = 'feedback.integral_gain' if integral_gain is not None else 'feedback.integral_poles'
+    try:
+        return design_integral(model, outputs, all_poles, gain, integral_gain,
+                               params['feedback.method'])
+    except (ConfigError, DesignError) as e:
+        raise named(e, 'integral', source) from e
+    except NUMERIC_FAILURES as e:
+        raise ConfigError(source, f'the design failed numerically ({e})') from e
+
+
 def _feedback(params: dict, model: StateSpaceModel,
               disturbance: Optional[DisturbanceModel] = None) -> Optional[FeedbackSettings]:
     gain, pole_text = params['feedback.gain'] or None, params['feedback.poles']
@@ -313,7 +416,14 @@ def _feedback(params: dict, model: StateSpaceModel,
         if params['feedback.disturbance_rejection']:
             raise ConfigError('feedback.disturbance_rejection', 'expected feedback.gain or '
                               'feedback.poles with it')
+        if params['feedback.integral_poles'] or params['feedback.integral_gain']:
+            raise ConfigError('feedback.poles', 'integral action needs the state feedback '
+                              'too: feedback.poles or feedback.gain')
         return None
+    if model.n_inputs == 0:
+        raise ConfigError('feedback.gain' if gain is not None else 'feedback.poles',
+                          'the model has no inputs (model.B is empty, m = 0): state feedback '
+                          'is not available')
     if gain is not None and pole_text:
         raise ConfigError('feedback.gain', 'give either feedback.gain or feedback.poles, '
                           'not both')
@@ -325,12 +435,19 @@ def _feedback(params: dict, model: StateSpaceModel,
         raise ConfigError('feedback.poles',
                           f'expected {model.n_states} poles, got {poles.size}')
     source = 'feedback.gain' if gain is not None else 'feedback.poles'
-    try:
-        design = design_feedback(model, poles, gain, params['feedback.method'])
-    except (ConfigError, DesignError) as e:
-        raise named(e, 'feedback', source) from e
-    except NUMERIC_FAILURES as e:
-        raise ConfigError(source, f'the design failed numerically ({e})') from e
+    integral = _integral(params, model, poles, gain)
+    if integral is not None:  # K comes from the augmented design; no N by default
+        design = FeedbackDesign(gain=integral.gain, requested_poles=integral.requested_poles,
+                                achieved_poles=integral.achieved_poles,
+                                method=integral.method, residual=integral.residual,
+                                reference_gain=None)
+    else:
+        try:
+            design = design_feedback(model, poles, gain, params['feedback.method'])
+        except (ConfigError, DesignError) as e:
+            raise named(e, 'feedback', source) from e
+        except NUMERIC_FAILURES as e:
+            raise ConfigError(source, f'the design failed numerically ({e})') from e
     reference = params['feedback.reference_gain']
     if reference:
         reference_gain = matrix_from_flat('feedback.reference_gain', reference,
@@ -347,7 +464,34 @@ def _feedback(params: dict, model: StateSpaceModel,
     return FeedbackSettings(design=design, reference_gain=reference_gain, input_limits=limits,
                             timeout=params['feedback.timeout'], safe_command=safe_command,
                             safe_command_period=params['feedback.safe_command_period'],
-                            disturbance_gain=_disturbance_gain(params, model, disturbance))
+                            disturbance_gain=_disturbance_gain(params, model, disturbance),
+                            integral=integral)
+
+
+def _joint_states(params: dict, model: StateSpaceModel) -> Optional[JointStateSelection]:
+    names = tuple(params['observer.joint_names'])
+    fields = {kind: params[f'observer.joint_{kind}_states']
+              for kind in ('position', 'velocity', 'effort')}
+    if not names:
+        for kind, states in fields.items():
+            if states:
+                raise ConfigError(f'observer.joint_{kind}_states', 'needs '
+                                  'observer.joint_names (the joints of joint_states_hat)')
+        return None
+    if len(set(names)) != len(names):
+        raise ConfigError('observer.joint_names', f'names must be unique, got {list(names)}')
+    if not any(fields.values()):
+        raise ConfigError('observer.joint_names', 'expected states for at least one field: '
+                          'observer.joint_position_states, observer.joint_velocity_states or '
+                          'observer.joint_effort_states')
+    chosen = {}
+    for kind, states in fields.items():
+        parameter = f'observer.joint_{kind}_states'
+        if states and len(states) != len(names):
+            raise ConfigError(parameter, f'expected {len(names)} states (one per joint of '
+                              f'observer.joint_names), got {len(states)}')
+        chosen[kind] = _indices(parameter, states, model.state_names, 'state')
+    return JointStateSelection(names, **chosen)
 
 
 def plant_rate(params: Mapping, model: StateSpaceModel) -> float:
@@ -418,6 +562,12 @@ def _plant(params: dict, model: StateSpaceModel,
                   else np.zeros(model.n_inputs))
     _check_inside('plant.safe_input', safe_input, limits, 'plant.input_limits')
     _check_inside('plant.safe_input', safe_input, params['topics.u.limit'], 'topics.u.limit')
+    offset = params['plant.input_offset']
+    input_offset = (vector_from_flat('plant.input_offset', offset, model.n_inputs) if offset
+                    else None)
+    if model.n_inputs == 0 and params['plant.lockstep']:
+        raise ConfigError('plant.lockstep', 'a model without inputs (model.B empty) has no '
+                          'command to wait for: run the plant in real time')
     command_timeout = params['plant.command_timeout']
     if command_timeout * rate <= 1.0:
         raise ConfigError('plant.command_timeout', f'expected more than one sample period '
@@ -428,7 +578,8 @@ def _plant(params: dict, model: StateSpaceModel,
                          measurement_noise=params['plant.measurement_noise'],
                          seed=params['plant.seed'], input_limits=limits,
                          command_timeout=command_timeout, safe_input=safe_input,
-                         disturbance=plant_disturbance, disturbance_time=disturbance_time)
+                         disturbance=plant_disturbance, disturbance_time=disturbance_time,
+                         input_offset=input_offset)
 
 
 def _check_interval_resolution(params: dict, model: StateSpaceModel) -> None:
@@ -512,8 +663,14 @@ def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> Syst
                       complete['topics.x_hat.limit'], 'topics.x_hat.limit')
     feedback = _feedback(complete, plant_model, disturbance)
     plant = _plant(complete, model, disturbance)
+    joint_states = _joint_states(complete, model)
     controller_tf, cl_poles, notes = None, None, []
-    if observer is not None and feedback is not None:
+    if observer is not None and feedback is not None and feedback.integral is not None:
+        # Separation: the servo loop's poles (on the augmented model) and the observer's.
+        cl_poles = np.concatenate([feedback.integral.achieved_poles, observer.achieved_poles])
+        notes.append('integral action: no single observer-controller transfer function is '
+                     'given (the integrator takes the measured y)')
+    elif observer is not None and feedback is not None:
         cl_poles = closed_loop_poles(model, observer.realization, feedback.estimate_gain)
         if disturbance is not None:
             cl_poles = _without_generator_modes(cl_poles, model, disturbance)
@@ -537,4 +694,5 @@ def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> Syst
     return System(parameters=complete, model=model, observer=observer,
                   observer_type=complete['observer.type'], initial_estimate=initial_estimate,
                   feedback=feedback, plant=plant, controller_tf=controller_tf,
-                  closed_loop_poles=cl_poles, notes=tuple(notes), disturbance=disturbance)
+                  closed_loop_poles=cl_poles, notes=tuple(notes), disturbance=disturbance,
+                  joint_states=joint_states)

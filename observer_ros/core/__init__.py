@@ -55,6 +55,9 @@ Observer-controller
     :func:`solve_diophantine`, :func:`controller_state_space`, :func:`closed_loop_matrix`,
     :func:`closed_loop_poles`, :class:`ControllerTransferFunction`,
     :class:`UnstableControllerWarning`, :class:`StateFeedbackLaw`.
+Integral action
+    :func:`design_integral`, :class:`IntegralDesign`, :func:`augmented_pair`,
+    :class:`IntegralAction` (the servo law's integrator, with anti-windup).
 Observer types
     :func:`observer_type`, :func:`observer_types`, :class:`ObserverType`, :func:`register`,
     :class:`Argument` (what a type reads).
@@ -129,11 +132,12 @@ _EXPORTS = {
     'observer_ros.core.design.kalman': (
         'KalmanDesign', 'design_kalman', 'design_sampled_kalman'),
     'observer_ros.core.design.feedback': ('FeedbackDesign', 'design_feedback', 'reference_gain'),
+    'observer_ros.core.design.integral': ('IntegralDesign', 'design_integral', 'augmented_pair'),
     'observer_ros.core.design.controller': (
         'ControllerTransferFunction', 'UnstableControllerWarning',
         'controller_transfer_function', 'diophantine_controller', 'solve_diophantine',
         'controller_state_space', 'closed_loop_matrix', 'closed_loop_poles'),
-    'observer_ros.core.control': ('StateFeedbackLaw',),
+    'observer_ros.core.control': ('StateFeedbackLaw', 'IntegralAction'),
     'observer_ros.core.estimators': ('Estimator', 'Prediction', 'StateEstimator',
                                      'TimeVaryingKalman', 'make_estimator'),
     'observer_ros.core.streaming': ('StreamEstimator', 'ValueLimits'),

@@ -328,7 +328,7 @@ class StateSpaceModel:
         a : sequence of float, shape (n * n,)
             ``A`` row after row; ``n`` comes from its length.
         b : sequence of float, shape (n * m,)
-            ``B``; ``m`` comes from its length.
+            ``B``; ``m`` comes from its length (empty: a model without inputs, m = 0).
         c : sequence of float, shape (p * n,)
             ``C``; ``p`` comes from its length.
         d : sequence of float, shape (p * m,), optional
@@ -364,11 +364,12 @@ class StateSpaceModel:
         a_matrix = square_from_flat('A', a)
         n_states = a_matrix.shape[0]
         b_vector = _as_finite_vector('B', b)
-        if b_vector.size == 0 or b_vector.size % n_states:
+        if b_vector.size % n_states:
             raise ConfigError(
                 'B',
                 f'expected {n_states}xm (a multiple of {n_states} values, row-major, '
-                f'n = {n_states} from A), got {b_vector.size}')
+                f'n = {n_states} from A; none for a model without inputs), '
+                f'got {b_vector.size}')
         n_inputs = b_vector.size // n_states
         c_vector = _as_finite_vector('C', c)
         if c_vector.size == 0 or c_vector.size % n_states:
@@ -417,7 +418,8 @@ class StateSpaceModel:
         ----------
         a : array_like, shape (n, n)
         b : array_like, shape (n, m)
-            A flat vector of ``n`` entries is one input column.
+            A flat vector of ``n`` entries is one input column; an empty one (or shape
+            ``(n, 0)``) a model without inputs.
         c : array_like, shape (p, n)
             A flat vector of ``n`` entries is one output row.
         d : array_like, shape (p, m), optional
@@ -460,6 +462,8 @@ class StateSpaceModel:
             raise ConfigError('B', f'expected a matrix of numbers, got {b!r}') from e
         if b.ndim == 1 and b.size == n_states:
             b = b.reshape(n_states, 1)  # one input given as a flat vector
+        elif b.size == 0:
+            b = np.zeros((n_states, 0))  # no inputs (m = 0)
         if b.ndim != 2 or b.shape[0] != n_states:
             raise ConfigError('B', f'expected a {n_states} x m matrix, got shape {b.shape}')
         c = _matrix_2d('C', c)
@@ -545,6 +549,11 @@ class StateSpaceModel:
             ``dt`` 0 (continuous) or the period; the state, input and output labels are the
             model's names.
 
+        Raises
+        ------
+        ConfigError
+            Naming ``B`` for a model without inputs (python-control cannot hold one).
+
         Examples
         --------
         >>> import observer_ros.core as oc
@@ -558,6 +567,9 @@ class StateSpaceModel:
         (('speed',), ('u1',), True)
 
         """
+        if self.n_inputs == 0:
+            raise ConfigError('B', 'python-control has no state-space systems without inputs '
+                              '(m = 0)')
         import control  # about a second to import, so only when asked
         dt = self.dt if self.is_discrete else 0
         return control.ss(self.a, self.b, self.c, self.d, dt,

@@ -108,6 +108,8 @@ class PlantSimulator:
         have been simulated: a disturbance step.
     disturbance_time : float
         Simulated seconds from the start (0: from the first sample on).
+    input_offset : array_like, shape (m,), optional
+        A constant disturbance ``d`` added to the saturated input: ``x' = A x + B (u + d)``.
 
     Attributes
     ----------
@@ -144,7 +146,7 @@ class PlantSimulator:
     def __init__(self, model: StateSpaceModel, initial_state=None, process_noise=None,
                  measurement_noise=None, seed: Optional[int] = None,
                  input_limits: Optional[np.ndarray] = None, disturbance=None,
-                 disturbance_time: float = 0.0) -> None:
+                 disturbance_time: float = 0.0, input_offset=None) -> None:
         self.model = model
         self.x = (np.zeros(model.n_states) if initial_state is None
                   else vector_from_flat('initial_state', initial_state, model.n_states))
@@ -156,6 +158,8 @@ class PlantSimulator:
         self.rng = np.random.default_rng(seed)
         self.input_limits = (None if input_limits is None else
                              input_limits_from_flat(np.ravel(input_limits), model.n_inputs))
+        self.input_offset = (None if input_offset is None or len(input_offset) == 0 else
+                             vector_from_flat('input_offset', input_offset, model.n_inputs))
         self._cache: OrderedDict = OrderedDict()
         self.elapsed = 0.0
         self.disturbance_time = float(disturbance_time)
@@ -238,7 +242,10 @@ class PlantSimulator:
 
         """
         ad, bd, q_root = self._sampled(float(dt))
-        self.x = ad @ self.x + bd @ self.saturate(u)
+        applied = self.saturate(u)
+        if self.input_offset is not None:
+            applied = applied + self.input_offset
+        self.x = ad @ self.x + bd @ applied
         if q_root is not None:
             self.x = self.x + q_root @ self.rng.standard_normal(self.model.n_states)
         self.elapsed += self.model.dt if self.model.is_discrete else float(dt)

@@ -207,7 +207,9 @@ class StreamEstimator:
         self._awaiting: Optional[tuple] = None  # delayed form: (sample, sequence, arrival)
         self._sequence = 0
         self._zero_input = np.zeros(estimator.n_inputs)
-        self._inputs_absent = False
+        #: A model without inputs (m = 0): no measurement waits, none is short of an input.
+        self._autonomous = estimator.n_inputs == 0
+        self._inputs_absent = self._autonomous
 
     @property
     def counters(self) -> Counter:
@@ -278,7 +280,7 @@ class StreamEstimator:
 
     def _store_input(self, stamp_ns: int, vector: np.ndarray) -> None:
         """Keep an input in stamp order; a repeated stamp replaces the earlier input."""
-        self._inputs_absent = False
+        self._inputs_absent = self._autonomous
         index = bisect.bisect_left(self._input_stamps, stamp_ns)
         if index < len(self._input_stamps) and self._input_stamps[index] == stamp_ns:
             self._inputs[index] = vector
@@ -299,7 +301,7 @@ class StreamEstimator:
         last = np.append(ordered[1:] != ordered[:-1], True)  # of equal stamps the later wins
         self._input_stamps = ordered[last].tolist()
         self._inputs = list(vectors[order][last])
-        self._inputs_absent = False
+        self._inputs_absent = self._autonomous
 
     def add_measurement(self, stamp_ns: int, y, now_ns: Optional[int] = None,
                         arrival_ns: int = 0) -> list:
@@ -397,6 +399,8 @@ class StreamEstimator:
         """Return the input of the interval after ``previous`` (latest at or before it)."""
         index = bisect.bisect_right(self._input_stamps, previous) - 1
         if index < 0:
+            if self._autonomous:
+                return self._zero_input
             if self._input_stamps:
                 self.counters['late_input'] += 1
                 if self._input_stamps[0] - previous > self.max_gap_ns:
@@ -515,9 +519,13 @@ class StreamEstimator:
             u = self._inputs[index] if index >= 0 else self._zero_input
             self.estimator.prepare(u, (limits.measurement, min(limits.estimate,
                                                                limits.innovation)))
-            if index >= 0 and self.form == 'current':  # what add_measurement would do
+            if self.form != 'current':
+                return
+            if index >= 0:  # what add_measurement would do
                 offset = self._input_stamps[index] - stamp
                 self._steady_key = (stamp, u, offset if -offset > self.max_gap_ns else None)
+            elif self._autonomous:
+                self._steady_key = (stamp, u, None)
 
     def _publishable(self, estimate: np.ndarray, innovation: np.ndarray,
                      result: Optional[np.ndarray] = None) -> bool:
@@ -609,9 +617,10 @@ class StreamEstimator:
         estimator = self.estimator
         n_outputs, n_inputs = estimator.n_outputs, estimator.n_inputs
         outputs = np.ascontiguousarray(outputs, dtype=float).reshape(-1, n_outputs)
-        inputs = np.ascontiguousarray(inputs, dtype=float).reshape(-1, n_inputs)
         stamps = np.asarray(stamps, dtype=np.int64)
         input_stamps = np.asarray(input_stamps, dtype=np.int64)
+        inputs = (np.ascontiguousarray(inputs, dtype=float).reshape(-1, n_inputs) if n_inputs
+                  else np.zeros((len(input_stamps), 0)))  # m = 0: rows of nothing
         if len(stamps) != len(outputs) or len(input_stamps) != len(inputs):
             raise ValueError('replay: stamps and values differ in length')
         good_inputs, input_drops = self._row_filter(inputs, input_stamps, input_arrivals,
@@ -694,7 +703,7 @@ class StreamEstimator:
             counters['late_input'] += int((pairing[:-1] < 0).sum())
             if self.input_stamped:
                 counters['late_input'] += int((stamps[:-1] > input_stamps[-1]).sum())
-        else:
+        elif not self._autonomous:
             counters['no_input'] += count - 1
         counters['measurements'] += count
         counters['estimates'] += count
@@ -718,7 +727,7 @@ class StreamEstimator:
         counters = self.counters
         if len(self._input_stamps) and self.input_stamped and stamps[-1] > self._input_stamps[-1]:
             counters['late_input'] += 1  # the last row's next input: the latest earlier one
-        elif not len(self._input_stamps):
+        elif not len(self._input_stamps) and not self._autonomous:
             counters['no_input'] += 1
         estimates = np.empty_like(arrays.estimates)
         covariances = None if arrays.covariances is None else np.empty(arrays.covariances.shape)

@@ -15,6 +15,13 @@
 """
 ``observer``: subscribe ``y`` and ``u``, publish the state estimate ``x_hat``.
 
+A model without inputs (``model.B`` empty, m = 0) subscribes ``y`` only: each measurement
+advances the estimate at once (nothing waits for an input).
+
+With ``observer.joint_names`` every published ``x_hat`` is also published on
+``joint_states_hat`` as a ``sensor_msgs/JointState`` with the same stamp, its ``position``,
+``velocity`` and ``effort`` filled from the states ``observer.joint_<field>_states`` choose.
+
 Also publishes ``innovation`` (``y - C x_hat_prior``) and, for a Kalman filter,
 ``x_hat_covariance`` (``P``, n x n row-major), ``innovation_covariance`` (``S``, p x p) and
 ``nis`` (``v^T S^-1 v``), each stamped like the ``x_hat`` it belongs to; its health
@@ -30,6 +37,7 @@ from typing import Optional
 
 import numpy as np
 from rclpy.clock import Clock, ClockType
+from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
 from observer_ros.config import OBSERVER
@@ -37,7 +45,7 @@ from observer_ros.core.errors import ConfigError, ObserverRosError
 from observer_ros.core.placement import preload_methods
 from observer_ros.core.streaming import EstimateSample, within_limit
 from observer_ros.ros.diagnostics import monitor, NodeHealth
-from observer_ros.ros.messages import MalformedMessage, VectorCodec
+from observer_ros.ros.messages import JointStatesEncoder, MalformedMessage, VectorCodec
 from observer_ros.ros.parameters import ConfiguredNode, run_node
 
 NANOSECONDS = 1_000_000_000
@@ -67,14 +75,20 @@ class ObserverWiring:
         self.stream = system.make_stream()
         kalman = system.observer.kind == 'kalman'
         topics = ('y', 'u', 'x_hat', 'innovation') + (KALMAN_TOPICS if kalman else ())
+        inputs = system.model.n_inputs > 0  # without inputs (m = 0) no u is subscribed
         self.codecs = {topic: VectorCodec.for_topic(system, topic) for topic in topics}
         self.n_states, self.x_hat_codec = system.model.n_states, self.codecs['x_hat']
         self.node_counters: Counter = Counter()
         self.publishers_ = {topic: self._publisher(topic) for topic in topics[2:]}
         self.x_hat_publisher = self.publishers_['x_hat']
+        self.joint_states = None  # (encoder, publisher) of joint_states_hat, when configured
+        if system.joint_states is not None:
+            self.joint_states = (JointStatesEncoder(system.joint_states),
+                                 self.topic_publisher(JointState, 'joint_states_hat'))
         self.limits = {topic: system.parameters[f'topics.{topic}.limit'] for topic in topics}
         self.topic_subscription(self.codecs['y'].message_class, 'y', self._on_measurement)
-        self.topic_subscription(self.codecs['u'].message_class, 'u', self._on_input)
+        if inputs:
+            self.topic_subscription(self.codecs['u'].message_class, 'u', self._on_input)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.input_wait_ns = round(system.parameters['observer.input_wait'] * NANOSECONDS)
         self.wait_timer = self.create_timer(  # the steady clock is time.monotonic_ns's
@@ -208,6 +222,8 @@ class ObserverWiring:
             return
         n = self.n_states
         self.x_hat_publisher.publish(self.x_hat_codec.encode(stamp, result[:n]))
+        if self.joint_states is not None:
+            self._publish_joint_states(stamp, result[:n])
         estimator = self.stream.estimator
         self._publish_rest([EstimateSample(stamp, None, result[n:], estimator.covariance,
                                            estimator.innovation_covariance, estimator.nis)])
@@ -254,7 +270,14 @@ class ObserverWiring:
         for sample in samples:  # x_hat first: a controller waits for it
             self.x_hat_publisher.publish(
                 self.codecs['x_hat'].encode(sample.stamp_ns, sample.estimate))
+            if self.joint_states is not None:
+                self._publish_joint_states(sample.stamp_ns, sample.estimate)
         self._publish_rest(samples)
+
+    def _publish_joint_states(self, stamp: int, estimate) -> None:
+        """Publish ``joint_states_hat`` of an estimate just published on ``x_hat``."""
+        encoder, publisher = self.joint_states
+        publisher.publish(encoder.encode(stamp, estimate))
 
     def _publish_rest(self, samples) -> None:
         """Publish what follows x_hat: events, innovation, covariances, NIS; prepare."""
@@ -298,6 +321,8 @@ class ObserverWiring:
             self.node_counters['out_of_range'] += 1
             return
         self.x_hat_publisher.publish(self.x_hat_codec.encode(now, prediction.estimate))
+        if self.joint_states is not None:
+            self._publish_joint_states(now, prediction.estimate)
         if prediction.covariance is not None:
             self._publish_on('x_hat_covariance', now, np.ravel(prediction.covariance))
         self.node_counters['predictions'] += 1

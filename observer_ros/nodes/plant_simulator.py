@@ -38,6 +38,12 @@ once. Lockstep (``plant.lockstep: true``): after its peers have been there for
 sample only once the command computed from the current sample (stamped ``t_k``) has arrived,
 or after ``plant.lockstep_timeout`` wall-clock seconds with a warning; runs are deterministic
 and as fast as the nodes answer.
+
+A model without inputs (``model.B`` empty) is simulated autonomously: no ``u_cmd``
+subscription, no ``u`` topic, no wait for a command (real time only).
+
+``plant.input_offset`` adds a constant input disturbance to the applied input; the
+published ``u`` is the applied command without it (what a controller knows).
 """
 
 from collections import Counter
@@ -74,23 +80,26 @@ class PlantSimulatorNode(ConfiguredNode):
         params = system.parameters
         self.simulator = PlantSimulator(
             system.model, plant.initial_state, plant.process_noise, plant.measurement_noise,
-            plant.seed, plant.input_limits, plant.disturbance, plant.disturbance_time)
+            plant.seed, plant.input_limits, plant.disturbance, plant.disturbance_time,
+            input_offset=plant.input_offset)
         self.period_ns = plant.period_ns
         self.period = self.period_ns / NANOSECONDS
         self.samples = params['plant.samples']
         self.lockstep = params['plant.lockstep']
         self.lockstep_timeout = params['plant.lockstep_timeout']
         self.lockstep_subscribers = params['plant.lockstep_subscribers']
-        self.wait_for_command = params['plant.wait_for_command']
+        self.autonomous = system.model.n_inputs == 0
+        self.wait_for_command = params['plant.wait_for_command'] and not self.autonomous
         self.start_timeout = params['plant.start_timeout']
         self.command_timeout_ns = round(plant.command_timeout * NANOSECONDS)
         self.safe_input = self.simulator.saturate(plant.safe_input)
         self.command_limit = params['topics.u_cmd.limit']
+        topics = ('y', 'x_true') if self.autonomous else ('y', 'u', 'x_true')
         self.codecs = {topic: VectorCodec.for_topic(system, topic)
-                       for topic in ('y', 'u', 'x_true', 'u_cmd')}
+                       for topic in topics + ('u_cmd',)}
         self.publishers_ = {topic: self.topic_publisher(self.codecs[topic].message_class, topic)
-                            for topic in ('y', 'u', 'x_true')}
-        self.command_subscription = self.topic_subscription(
+                            for topic in topics}
+        self.command_subscription = None if self.autonomous else self.topic_subscription(
             self.codecs['u_cmd'].message_class, 'u_cmd', self._on_command)
         self.command = None
         self.command_stamp = None
@@ -143,6 +152,8 @@ class PlantSimulatorNode(ConfiguredNode):
 
     def _command_in_effect(self) -> tuple:
         """Return ``(input, is a command)``: the latest command, or the safe input."""
+        if self.autonomous:
+            return self.safe_input, False  # no input at all (m = 0)
         if self.command is None:
             return self.safe_input, False
         now = self.stamp_ns if self.lockstep else time.monotonic_ns()
@@ -170,7 +181,8 @@ class PlantSimulatorNode(ConfiguredNode):
             if self.command_stamp == self.stamp_ns - self.period_ns:
                 self.counters['commands_on_time'] += 1
         self.applied = applied
-        self._publish_within('u', applied)
+        if not self.autonomous:
+            self._publish_within('u', applied)
         self._publish_within('y', y)
         self.counters['samples'] += 1
 

@@ -13,7 +13,13 @@
 # limitations under the License.
 
 """
-``state_feedback``: ``u_cmd = sat(-K x_hat + N r)`` from ``x_hat`` and ``reference``.
+``state_feedback``: ``u_cmd = sat(-K x_hat + N r + K_i z)`` from ``x_hat`` and ``reference``.
+
+With integral action (``feedback.integral_poles`` or ``feedback.integral_gain``) it also
+subscribes ``y``: ``z`` integrates ``r - y_i`` of the measured outputs chosen by
+``feedback.integral_outputs`` (see :mod:`observer_ros.core.control` for the accumulation
+and the anti-windup). A run-time change of the gains, outputs or period resets ``z`` to zero;
+a change of anything else keeps it.
 
 With ``model.disturbances`` the estimate carries the disturbance states after the plant's:
 ``K`` acts on the plant states, and with ``feedback.disturbance_rejection`` each matched
@@ -37,11 +43,12 @@ node publishes nothing (the plant applies its own safe input).
 
 from collections import Counter
 import time
+from typing import Optional
 
 from rclpy.clock import Clock, ClockType
 
 from observer_ros.config import FEEDBACK
-from observer_ros.core.control import StateFeedbackLaw
+from observer_ros.core.control import IntegralAction, StateFeedbackLaw
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.placement import preload_methods
 from observer_ros.core.streaming import within_limit
@@ -53,16 +60,28 @@ NANOSECONDS = 1_000_000_000
 
 
 def feedback_law(system) -> StateFeedbackLaw:
-    """Build the feedback law of a validated system."""
+    """Build the feedback law of a validated system (with its integrator, if any)."""
     feedback = system.feedback
+    design = feedback.integral
+    integral = None if design is None else IntegralAction(
+        design.integral_gain, design.outputs, system.model.dt)
     return StateFeedbackLaw(feedback.estimate_gain, feedback.reference_gain,
-                            feedback.input_limits)
+                            feedback.input_limits, integral)
 
 
 def value_limits(system) -> dict:
     """``topics.<topic>.limit`` of the feedback node's topics."""
     return {topic: system.parameters[f'topics.{topic}.limit']
-            for topic in ('x_hat', 'reference', 'u_cmd')}
+            for topic in ('x_hat', 'reference', 'u_cmd', 'y')}
+
+
+def _integral_key(system) -> Optional[tuple]:
+    """Return what the integrator state depends on: it is reset when this changes."""
+    design = system.feedback.integral
+    if design is None:
+        return None
+    return (design.integral_gain.tobytes(), design.gain.tobytes(), design.outputs,
+            system.model.dt)
 
 
 class StateFeedbackWiring:
@@ -80,7 +99,7 @@ class StateFeedbackWiring:
         self.law = feedback_law(system)
         self.limits = value_limits(system)
         self.codecs = {topic: VectorCodec.for_topic(system, topic)
-                       for topic in ('x_hat', 'reference', 'u_cmd')}
+                       for topic in ('x_hat', 'reference', 'u_cmd', 'y')}
         self.counters: Counter = Counter()
         self.reference = None
         #: ``time.monotonic_ns()`` when the last accepted estimate arrived (None: none yet).
@@ -90,6 +109,8 @@ class StateFeedbackWiring:
         self.topic_subscription(self.codecs['x_hat'].message_class, 'x_hat', self._on_estimate)
         self.topic_subscription(self.codecs['reference'].message_class, 'reference',
                                 self._on_reference)
+        self.measurement_subscription = None
+        self._subscribe_measurements(system)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         feedback = system.feedback
         self.watchdog = self.create_timer(feedback.timeout, self._on_watchdog, clock=steady,
@@ -97,26 +118,40 @@ class StateFeedbackWiring:
         self.repeat_timer = self.create_timer(feedback.safe_command_period,
                                               self._publish_safe_command, clock=steady,
                                               autostart=False)
-        self.health = NodeHealth(
-            self, {'x_hat': monitor(system, 'x_hat', feedback.timeout, minimum_only=True),
-                   'reference': monitor(system, 'reference', 0.0, required=False,
-                                        rated=False)},
-            lambda: self.counters)
+        monitors = {'x_hat': monitor(system, 'x_hat', feedback.timeout, minimum_only=True),
+                    'reference': monitor(system, 'reference', 0.0, required=False,
+                                         rated=False)}
+        if feedback.integral is not None:  # the integrator takes the measured y
+            monitors['y'] = monitor(system, 'y', 0.0, minimum_only=True)
+        self.health = NodeHealth(self, monitors, lambda: self.counters)
         self.diagnostics = self.health.publisher
         self.get_logger().info(f'K = {feedback.design.gain.tolist()}')
         if feedback.disturbance_gain is not None and feedback.disturbance_gain.any():
             self.get_logger().info(f'K_d = {feedback.disturbance_gain.tolist()} (disturbance '
                                    f'rejection)')
 
+    def _subscribe_measurements(self, system) -> None:
+        """Subscribe ``y`` once integral action needs it."""
+        if system.feedback.integral is not None and self.measurement_subscription is None:
+            self.measurement_subscription = self.topic_subscription(
+                self.codecs['y'].message_class, 'y', self._on_measurement)
+
     def vet_system(self, system) -> None:
         """Refuse configurations without a feedback gain."""
+        if system.model.n_inputs == 0:
+            raise ConfigError('model.B', 'the state_feedback node needs a model with inputs; '
+                              'model.B is empty (m = 0)')
         if system.feedback is None:
             raise ConfigError('feedback.gain', 'the state_feedback node needs feedback.gain '
                               'or feedback.poles')
 
     def apply_system(self, previous, system) -> None:
         """Use the new gains, limits and timing from now on."""
+        old_integral = self.law.integral
         self.law = feedback_law(system)
+        if old_integral is not None and _integral_key(previous) == _integral_key(system):
+            self.law.integral = old_integral  # same integrator: keep z
+        self._subscribe_measurements(system)
         self.limits = value_limits(system)
         new, old = system.feedback, previous.feedback
         for timer, period, before in ((self.watchdog, new.timeout, old.timeout),
@@ -147,7 +182,7 @@ class StateFeedbackWiring:
         _, reference = self._decode('reference', message)
         if reference is None:
             return
-        if self.law.reference_gain is None:
+        if self.law.reference_gain is None and self.law.integral is None:
             self.warn_once('no reference gain', 'reference ignored: no reference gain (the '
                            'plant is not square or has a zero at DC; set '
                            'feedback.reference_gain)')
@@ -163,7 +198,8 @@ class StateFeedbackWiring:
             self.stale = False
             self.repeat_timer.cancel()
             self.get_logger().info('x_hat is back: state feedback resumed')
-        command = self.law.command(estimate, self.reference)
+        stamp = stamp or self._now_stamp()
+        command = self.law.command(estimate, self.reference, stamp)
         if not within_limit(command, self.limits['u_cmd']):
             self.counters['unsafe_command'] += 1
             self.warn_once('unsafe command', f'the command {command.tolist()} is non-finite or '
@@ -171,8 +207,12 @@ class StateFeedbackWiring:
                            f'feedback.safe_command instead')
             command = self.system.feedback.safe_command
         self.counters['commands'] += 1
-        self.publisher.publish(self.codecs['u_cmd'].encode(stamp or self._now_stamp(),
-                                                           command))
+        self.publisher.publish(self.codecs['u_cmd'].encode(stamp, command))
+
+    def _on_measurement(self, message) -> None:
+        stamp, y = self._decode('y', message)
+        if y is not None and self.law.integral is not None:
+            self.law.integral.measure(stamp or self._now_stamp(), y)
 
     def _now_stamp(self) -> int:
         """Return the node clock as a stamp: 0 (unstamped) beyond what a stamp holds."""

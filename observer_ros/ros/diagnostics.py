@@ -169,8 +169,11 @@ class NodeHealth:
 
     def tick(self, topic: str, stamp_ns: Optional[int]) -> None:
         """Count a decoded message on ``topic`` (unstamped: stamped with its arrival)."""
+        monitor = self.monitors.get(topic)
+        if monitor is None:
+            return  # a topic the node watches without a health check of its own
         arrival = time.monotonic_ns()
-        self.monitors[topic].tick(arrival if stamp_ns is None else stamp_ns, arrival)
+        monitor.tick(arrival if stamp_ns is None else stamp_ns, arrival)
 
     def sample(self, innovation, nis: Optional[float], covariance) -> None:
         """Take one published estimate's innovation, NIS and covariance."""

@@ -27,6 +27,7 @@ skips building Python message objects on the hot path. Message objects are accep
 """
 
 import math
+import struct
 from typing import Optional, Sequence
 
 import numpy as np
@@ -35,7 +36,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from observer_ros.bags.cdr import (
-    DecodeError, HEADER, MessageReader, MessageWriter)
+    DecodeError, HEADER, JOINT_STATE_FIELDS, MessageReader, MessageWriter, ORIGIN,
+    parse_layout, STAMP)
 from observer_ros.config import System
 from observer_ros.config.schema import topic_names
 
@@ -229,3 +231,49 @@ class VectorCodec:
             return deserialize_message(raw, self.message_class)
         except Exception as e:  # the type support raises plain RuntimeError / others
             raise MalformedMessage(f'{self.topic}: cannot deserialize ({e})') from None
+
+
+class JointStatesEncoder:
+    """
+    Serialize ``x_hat`` as a ``sensor_msgs/JointState`` with chosen states in its fields.
+
+    Parameters
+    ----------
+    selection : observer_ros.config.system.JointStateSelection
+        Joint names and, per field (``position``, ``velocity``, ``effort``), the state index
+        of each joint (an empty tuple leaves that field empty).
+
+    Examples
+    --------
+    >>> from rclpy.serialization import deserialize_message
+    >>> from sensor_msgs.msg import JointState
+    >>> from observer_ros.config.system import JointStateSelection
+    >>> encoder = JointStatesEncoder(JointStateSelection(('shoulder',), (0,), (1,)))
+    >>> message = deserialize_message(encoder.encode(5, [1.5, -2.0]), JointState)
+    >>> message.name, list(message.position), list(message.velocity), list(message.effort)
+    (['shoulder'], [1.5], [-2.0], [])
+
+    """
+
+    def __init__(self, selection) -> None:
+        self.names = list(selection.names)
+        self.fields = {field: list(getattr(selection, field)) for field in JOINT_STATE_FIELDS}
+        template = JointState(name=self.names, **{
+            field: [0.0] * len(indices) for field, indices in self.fields.items()})
+        raw = serialize_message(template)
+        layout = parse_layout(raw, 'joint_state')
+        self._buffer = bytearray(len(raw))
+        self._buffer[:ORIGIN] = HEADER
+        for start, end in layout.fixed:
+            self._buffer[start:end] = raw[start:end]
+        self._parts = [(struct.Struct(f'<{len(indices)}d'), layout.arrays[field][0], indices)
+                       for field, indices in self.fields.items() if indices]
+
+    def encode(self, stamp_ns: int, estimate) -> bytes:
+        """Return the message of ``estimate`` (shape ``(n,)``) stamped ``stamp_ns``."""
+        check_publishable_stamp(stamp_ns)
+        STAMP.pack_into(self._buffer, ORIGIN, *divmod(int(stamp_ns), NANOSECONDS))
+        values = estimate.tolist() if isinstance(estimate, np.ndarray) else list(estimate)
+        for packer, offset, indices in self._parts:
+            packer.pack_into(self._buffer, offset, *[values[i] for i in indices])
+        return bytes(self._buffer)

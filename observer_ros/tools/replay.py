@@ -18,6 +18,9 @@
 ``replay BAG PARAMS [--output BAG] [--csv FILE] [--report DIR]`` reads ``y`` and ``u``
 with their recorded stamps, writes ``x_hat`` and the innovation, and with ``--report``
 compares them with ``x_true`` (or ``--truth TOPIC``): the per-state error table and a PNG.
+``--reference STATE=TOPIC:FIELD:JOINT`` (repeatable) prints the RMSE of one state against a
+recorded JointState field, e.g. the velocity a robot's ``/joint_states`` carries. A model
+without inputs (``model.B`` empty) reads no ``u`` topic.
 Everything is checked (parameter file, output paths, topics, time bases, the truth) before
 anything is written; an error prints one line, exits with status 2 and leaves nothing
 behind.
@@ -29,10 +32,11 @@ import sys
 import time
 
 from observer_ros.bags.replay import (
-    check_outputs, load_system, made_directories, remove_outputs, replay_bag, write_replay)
+    check_outputs, load_system, made_directories, reference_rmse, remove_outputs, replay_bag,
+    StateReference, write_replay)
 from observer_ros.bags.storage import BagError, STORAGES
 from observer_ros.core.errors import ConfigError, DesignError
-from observer_ros.core.evaluation import align
+from observer_ros.core.evaluation import align, settling_time
 from observer_ros.core.plots import write_run_report
 from observer_ros.signals import stops_on_signal
 
@@ -47,13 +51,22 @@ def main(args=None) -> int:
     parser.add_argument('bag', help='rosbag2 bag directory (MCAP or sqlite3), or a storage file')
     parser.add_argument('params', help='parameter file (/**: ros__parameters:)')
     parser.add_argument('--y-topic', default='y', help='measurement topic in the bag')
-    parser.add_argument('--u-topic', default='u', help='input topic in the bag')
+    parser.add_argument('--u-topic', default=None,
+                        help='input topic in the bag (default u; none for a model without '
+                        'inputs)')
     parser.add_argument('--output', metavar='BAG', help='write x_hat and innovation to a new bag')
     parser.add_argument('--storage', choices=STORAGES, default='mcap')
     parser.add_argument('--csv', metavar='FILE', help='write stamps, x_hat and innovation')
     parser.add_argument('--report', metavar='DIR',
                         help='error table and DIR/replay.png against the true state')
     parser.add_argument('--truth', default='x_true', help='true-state topic for --report')
+    parser.add_argument('--reference', action='append', default=[],
+                        metavar='STATE=TOPIC:FIELD:JOINT',
+                        help='print the RMSE of STATE against a JointState field of one joint, '
+                        'e.g. q_dot=/joint_states:velocity:shoulder (repeatable)')
+    parser.add_argument('--settle', type=float, default=None, metavar='SECONDS',
+                        help='--reference: skip the first SECONDS of estimates (default: the '
+                        'settling time of the observer poles)')
     parser.add_argument('--use-log-time', action='store_true',
                         help='stamp y and u (and the truth) with their log times instead of '
                         'their header stamps (streams stamped in different time bases)')
@@ -61,10 +74,18 @@ def main(args=None) -> int:
     try:
         # Everything is checked (parameters, outputs, topics, truth) before anything is written.
         system = load_system(options.params)
+        references = [StateReference.parse(text) for text in options.reference]
+        if system.model.n_inputs == 0 and options.u_topic is not None:
+            raise ConfigError('--u-topic', 'the model has no inputs (model.B is empty): '
+                              'expected no input topic')
         check_outputs(options.output, options.csv, options.report)
         started = time.perf_counter()
-        result = replay_bag(options.bag, system, options.y_topic, options.u_topic,
+        result = replay_bag(options.bag, system, options.y_topic, options.u_topic or 'u',
                             options.use_log_time)
+        settle = (options.settle if options.settle is not None else
+                  settling_time(system.observer.achieved_poles, system.model.dt))
+        rmse = [(reference, *reference_rmse(result, reference, settle))
+                for reference in references]
         elapsed = time.perf_counter() - started
         truth = None
         if options.report:
@@ -90,6 +111,10 @@ def main(args=None) -> int:
         print(f'replayed {len(result.outputs.values)} measurements into '
               f'{len(result.stamps_ns)} estimates in {elapsed:.3f} s '
               f'({len(result.outputs.values) / max(elapsed, 1e-9):,.0f} samples/s); {counters}')
+        for reference, error, count in rmse:
+            print(f'{reference.state}: RMSE {error:.6g} against {reference.topic} '
+                  f'{reference.field} of {reference.joint} ({count} estimates, after '
+                  f'{settle:g} s)')
         if truth is not None:
             print(write_run_report(
                 options.report, REPORT_NAME, result.system, truth.stamps_ns, truth.values,
