@@ -6,4 +6,6 @@
 # pytest. ROS traffic stays on this machine, in a domain of its own (see test/conftest.py).
 source "$(dirname "$0")/setup_env.sh"
 cd "$ROOT"
-exec python -m pytest "$@"
+# Two workers (pytest-xdist), each in a DDS domain of its own; OBSERVER_ROS_TEST_WORKERS=0
+# runs in one process.
+exec python -m pytest -n "${OBSERVER_ROS_TEST_WORKERS:-2}" "$@"
