@@ -23,6 +23,7 @@ import pytest
 import yaml
 
 from bag_support import robot_parameters, ROBOT_TOPICS, WALL_START_NS, write_robot_bag
+from conftest import console_script
 from observer_ros.bags.replay import replay_bag, write_replay
 from observer_ros.bags.storage import BagError
 
@@ -34,8 +35,8 @@ SIM_START_NS = 5 * 10**8
 
 def run_replay(*args):
     """Run ``replay`` to completion; return the CompletedProcess."""
-    return subprocess.run(['replay', *map(str, args)], capture_output=True, text=True,
-                          timeout=60)
+    return subprocess.run([console_script('replay'), *map(str, args)], capture_output=True,
+                          text=True, timeout=60)
 
 
 def one_error_line(result, *fragments):
