@@ -98,6 +98,9 @@ def test_integral_action_with_a_load_model_feeds_back_k_and_zero_on_the_estimate
 def test_lockstep_closed_loop_tracks_the_step_under_the_load(lockstep):
     system, arrays, counters = lockstep
     assert counters.get('lockstep_timeouts', 0) == 0
+    # Every unstamped (Float64MultiArray) command that ended a lockstep wait was the one
+    # computed from the previous sample, and is counted as such.
+    assert counters['commands_on_time'] == SAMPLES - 1
     stamps, truth, estimate = align(*arrays['x_true'], *arrays['x_hat'])
     assert truth.shape == estimate.shape == (SAMPLES, 3)
     times = times_of(stamps)
