@@ -39,6 +39,7 @@ from observer_ros.bags.replay import replay_bag
 from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.design.integral import augmented_pair
 from observer_ros.core.evaluation import align
+from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.recorder import TopicRecorder
 from ros_support import executor_with, NodeProcess, ros_context, run_lockstep, spin_until
 
@@ -93,6 +94,19 @@ def test_integral_action_with_a_load_model_feeds_back_k_and_zero_on_the_estimate
     # [K, 0]: the integrator, not a load cancellation, removes the offset.
     assert feedback.estimate_gain.shape == (1, 3)
     np.testing.assert_array_equal(feedback.estimate_gain, np.hstack([integral.gain, [[0.0]]]))
+    # The node applies exactly that to the three-state x_hat, and integrates the measured y.
+    with ros_context('--params-file', str(CONFIG_DIR / CONFIG)) as context:
+        node = StateFeedbackNode(context=context)
+        try:
+            np.testing.assert_array_equal(node.law.gain, feedback.estimate_gain)
+            np.testing.assert_array_equal(node.law.integral.gain, integral.integral_gain)
+            assert node.measurement_subscription is not None
+            estimate = np.array([0.25, -1.0, -2.0])  # q, q_dot, load
+            node.law.integral.measure(0, [0.25])
+            command = node.law.command(estimate, np.array([STEP]), 0)
+            assert command[0] == pytest.approx(-(integral.gain @ estimate[:2])[0])
+        finally:
+            node.destroy_node()
 
 
 def test_lockstep_closed_loop_tracks_the_step_under_the_load(lockstep):
