@@ -91,6 +91,8 @@ def test_integral_action_with_a_load_model_feeds_back_k_and_zero_on_the_estimate
     a, b = augmented_pair(system.plant_model, integral.outputs)
     closed = a - b @ np.hstack([integral.gain, -integral.integral_gain])
     assert np.allclose(np.sort(np.linalg.eigvals(closed).real), [-9.0, -8.0, -6.0])
+    np.testing.assert_allclose(integral.gain, [[43.5, 5.25]], rtol=1e-9)  # README, Recipe
+    np.testing.assert_allclose(integral.integral_gain, [[108.0]], rtol=1e-9)
     # [K, 0]: the integrator, not a load cancellation, removes the offset.
     assert feedback.estimate_gain.shape == (1, 3)
     np.testing.assert_array_equal(feedback.estimate_gain, np.hstack([integral.gain, [[0.0]]]))
@@ -124,10 +126,17 @@ def test_lockstep_closed_loop_tracks_the_step_under_the_load(lockstep):
     late = times > LOAD_TIME + LOAD_SETTLED
     assert np.abs(estimate[late, 2] - LOAD).max() < 1e-6
     # Zero steady-state error under the load; the servo holds the load: u = -load.
-    y = arrays['y'][1][:, 0]
+    y, u = arrays['y'][1][:, 0], arrays['u'][1][:, 0]
     assert np.abs(y[times >= SETTLED] - STEP).max() < 1e-6
     assert np.abs(y - STEP).max() > 0.5  # it did move: from 0 to the step
-    assert arrays['u'][1][-1, 0] == pytest.approx(-LOAD, abs=1e-6)
+    assert u[-1] == pytest.approx(-LOAD, abs=1e-6)
+    # README's table (Recipe: measured): the dip under the load, the peak effort, and when
+    # the load estimate and the position come within 1e-6.
+    dip = STEP - y[times >= LOAD_TIME].min()
+    assert 0.05 < dip < 0.07 and np.abs(u).max() < 4.5, (dip, np.abs(u).max())
+    load_error = np.abs(estimate[:, 2] - truth[:, 2])
+    assert times[np.nonzero(load_error >= 1e-6)[0][-1] + 1] < LOAD_TIME + 1.0
+    assert times[np.nonzero(np.abs(y - STEP) >= 1e-6)[0][-1] + 1] < 4.5
 
 
 def robot_process(executable, *args):
