@@ -146,6 +146,9 @@ class PlantSimulatorNode(ConfiguredNode):
             self.command_lost = False
             self.get_logger().info('u_cmd is back: applying the commands again')
         if self.lockstep and self.awaiting is not None and stamp in (self.awaiting, None):
+            # An unstamped command (Float64MultiArray) ending the wait is the one computed
+            # from the awaited sample: counted as such in commands_on_time.
+            self.command_stamp = self.awaiting
             self.awaiting = None
             self.timeout_timer.cancel()
             self._advance()
