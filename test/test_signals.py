@@ -76,10 +76,12 @@ class Executable:
     def __init__(self, name: str, *args: str, ready_line=None, process_group: int = 0) -> None:
         self.name = name
         # process_group=0: a new group led by this process, as launch's children get.
+        # With the fault handler on, a process that does not exit in time shows on stderr
+        # where each of its threads was when SIGABRT ended it (see finish()).
         self.process = subprocess.Popen(
             [console_script(name), *args], stdin=subprocess.DEVNULL,
             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-            process_group=process_group)
+            process_group=process_group, env={**os.environ, 'PYTHONFAULTHANDLER': '1'})
         self.ready_line = ready_line
         self.signalled = False
         self.lines = []
@@ -141,8 +143,12 @@ class Executable:
         try:
             self.process.wait(timeout=EXIT_TIMEOUT)
         except subprocess.TimeoutExpired:
-            self.process.kill()
-            self.process.wait()
+            self.process.send_signal(signal.SIGABRT)  # the fault handler dumps the stacks
+            try:
+                self.process.wait(timeout=5.0)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
         self.reader.join(timeout=EXIT_TIMEOUT)
         return self.process.returncode, self.stderr()
 
