@@ -31,7 +31,8 @@ import numpy as np
 
 from observer_ros.core.discretize import transition, zero_order_hold
 from observer_ros.core.errors import ConfigError, DesignError, StampError
-from observer_ros.core.estimators.protocol import Prediction, StateEstimator
+from observer_ros.core.estimators.protocol import (
+    Prediction, rounded_interval, RoundedIntervals, StateEstimator)
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.placement import place_observer
 from observer_ros.core.poles import to_discrete
@@ -198,7 +199,7 @@ def least_norm_consistent(c: np.ndarray, initial_state: np.ndarray, y: np.ndarra
     return initial_state + correction
 
 
-class Estimator(StateEstimator):
+class Estimator(RoundedIntervals, StateEstimator):
     """
     The constant-``G`` estimator: one matrix per sample interval, cached by interval.
 
@@ -255,7 +256,6 @@ class Estimator(StateEstimator):
         self._cache_size = cache_size
         self._last_dt_ns: Optional[int] = None
         self._last_step_matrices: Optional[StepMatrices] = None
-        self._resolution_ns = 0
         self.interval_resolution_ns = interval_resolution_ns
         self._stamp: Optional[int] = None
         self._start, self._start_pinned = self._initial_prior()
@@ -414,21 +414,11 @@ class Estimator(StateEstimator):
         """Step matrices used by the last update."""
         return self._step
 
-    @property
-    def interval_resolution_ns(self) -> int:
-        """Intervals are rounded to multiples of this (0: exact); see the class parameters."""
-        return self._resolution_ns
-
-    @interval_resolution_ns.setter
-    def interval_resolution_ns(self, value: int) -> None:
-        value = int(value)
-        if value < 0:
-            raise ConfigError('interval_resolution_ns', f'expected >= 0, got {value}')
-        if value != self._resolution_ns:
-            self._resolution_ns = value
-            self._cache.clear()
-            self._recent.clear()
-            self._last_dt_ns = self._last_step_matrices = self._prepared = None
+    def _forget_intervals(self) -> None:
+        """Drop the steps designed for the old rounding (the resolution changed)."""
+        self._cache.clear()
+        self._recent.clear()
+        self._last_dt_ns = self._last_step_matrices = self._prepared = None
 
     def recent_intervals(self) -> list:
         """
@@ -444,9 +434,8 @@ class Estimator(StateEstimator):
         if dt_ns == self._last_dt_ns:
             return self._last_step_matrices
         key = dt_ns
-        resolution = self._resolution_ns
-        if resolution:
-            key = max(1, (dt_ns + resolution // 2) // resolution) * resolution
+        if self._resolution_ns:
+            key = rounded_interval(dt_ns, self._resolution_ns)
         step = self._cache.get(key)
         if step is None:
             step = self.design.step(key)

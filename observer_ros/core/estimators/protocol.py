@@ -30,6 +30,8 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
+from observer_ros.core.errors import ConfigError
+
 
 class Prediction(NamedTuple):
     """
@@ -51,6 +53,40 @@ class Prediction(NamedTuple):
     stamp_ns: int
     estimate: np.ndarray
     covariance: Optional[np.ndarray]
+
+
+def rounded_interval(dt_ns: int, resolution_ns: int) -> int:
+    """Return ``dt_ns`` rounded to the nearest multiple of ``resolution_ns`` (> 0), >= one."""
+    return max(1, (dt_ns + resolution_ns // 2) // resolution_ns) * resolution_ns
+
+
+class RoundedIntervals:
+    """
+    ``interval_resolution_ns`` for an estimator that designs or samples per interval (a mixin).
+
+    The value is checked (an integer >= 0) and kept in ``_resolution_ns``; a change calls
+    ``_forget_intervals()``, which the estimator implements to drop what it made for the old
+    rounding. Put it before :class:`StateEstimator` in the bases.
+    """
+
+    _resolution_ns = 0
+
+    @property
+    def interval_resolution_ns(self) -> int:
+        """Intervals are rounded to multiples of this before they are designed (0: exact)."""
+        return self._resolution_ns
+
+    @interval_resolution_ns.setter
+    def interval_resolution_ns(self, value: int) -> None:
+        value = int(value)
+        if value < 0:
+            raise ConfigError('interval_resolution_ns', f'expected >= 0, got {value}')
+        if value != self._resolution_ns:
+            self._resolution_ns = value
+            self._forget_intervals()
+
+    def _forget_intervals(self) -> None:
+        raise NotImplementedError
 
 
 class StateEstimator(ABC):

@@ -41,7 +41,8 @@ import numpy as np
 
 from observer_ros.core.discretize import transition
 from observer_ros.core.errors import ConfigError, StampError
-from observer_ros.core.estimators.protocol import Prediction, StateEstimator
+from observer_ros.core.estimators.protocol import (
+    Prediction, rounded_interval, RoundedIntervals, StateEstimator)
 from observer_ros.core.model import covariance_from_flat, StateSpaceModel
 
 NANOSECONDS = 1_000_000_000
@@ -53,7 +54,7 @@ CACHE_SIZE = 256
 RECENT = 4
 
 
-class TimeVaryingKalman(StateEstimator):
+class TimeVaryingKalman(RoundedIntervals, StateEstimator):
     """
     Kalman filter whose covariance follows the actual sample intervals.
 
@@ -110,7 +111,6 @@ class TimeVaryingKalman(StateEstimator):
             raise ConfigError('initial_covariance', 'expected a positive definite matrix')
         self._pinned = None
         self.initial_state = initial_state
-        self._resolution_ns = 0
         self._last_key_dt = self._last_sampled = None
         self._cache: dict = {}
         self._recent: tuple = ()
@@ -185,21 +185,11 @@ class TimeVaryingKalman(StateEstimator):
         self._unpack_one()
         return self._k
 
-    @property
-    def interval_resolution_ns(self) -> int:
-        """Intervals are rounded to multiples of this (0: exact)."""
-        return self._resolution_ns
-
-    @interval_resolution_ns.setter
-    def interval_resolution_ns(self, value: int) -> None:
-        value = int(value)
-        if value < 0:
-            raise ValueError(f'interval_resolution_ns: expected >= 0, got {value}')
-        if value != self._resolution_ns:
-            self._resolution_ns = value
-            self._cache.clear()
-            self._recent = ()
-            self._last_key_dt = self._last_sampled = None
+    def _forget_intervals(self) -> None:
+        """Drop the models sampled for the old rounding (the resolution changed)."""
+        self._cache.clear()
+        self._recent = ()
+        self._last_key_dt = self._last_sampled = None
 
     def recent_intervals(self) -> list:
         """Return the last few distinct intervals (ns) sampled, newest first."""
@@ -224,8 +214,7 @@ class TimeVaryingKalman(StateEstimator):
         if self._discrete:
             key = 0
         elif self._resolution_ns:
-            resolution = self._resolution_ns
-            key = max(1, (dt_ns + resolution // 2) // resolution) * resolution
+            key = rounded_interval(dt_ns, self._resolution_ns)
         cache = self._cache
         sampled = cache.get(key)
         if sampled is None:
