@@ -27,6 +27,8 @@ anti-windup keeps the overshoot within the unsaturated one plus
 import numpy as np
 import pytest
 from rclpy.parameter import Parameter
+from rclpy.serialization import serialize_message
+from sensor_msgs.msg import JointState
 import yaml
 
 from observer_ros.config import validate_parameters
@@ -35,6 +37,7 @@ from observer_ros.core.design.integral import augmented_pair
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.simulation import PlantSimulator
 from observer_ros.nodes.state_feedback import feedback_law, StateFeedbackNode
+from observer_ros.ros.messages import ns_to_stamp
 from ros_support import overrides, ros_context, run_lockstep
 
 MOTOR = {'model.A': [0.0, 1.0, 0.0, -10.0], 'model.B': [0.0, 20.0], 'model.C': [1.0, 0.0],
@@ -230,5 +233,26 @@ def test_a_refused_gain_change_keeps_the_integrator_and_an_accepted_one_resets_i
             assert result[0].successful
             assert node.law.integral.state.tolist() == [0.0]  # new gains: z starts afresh
             assert node.law.integral.gain[0, 0] != integral.gain[0, 0]
+        finally:
+            node.destroy_node()
+
+
+def test_integral_action_switched_on_at_run_time_watches_y():
+    # feedback.integral_poles can be set while the node runs: the y subscription it then
+    # needs gets its health check too, and every y is counted there.
+    values = {name.replace('.', '__'): value for name, value in MOTOR.items()
+              if name.split('.')[0] in ('model', 'feedback')}
+    with ros_context() as context:
+        node = StateFeedbackNode(context=context, parameter_overrides=overrides(**values))
+        try:
+            assert node.measurement_subscription is None and 'y' not in node.health.monitors
+            result = node.set_parameters([Parameter('feedback.integral_poles', value=['-6'])])
+            assert result[0].successful, result[0].reason
+            assert node.measurement_subscription is not None
+            message = JointState(name=['shoulder'], position=[0.25])
+            ns_to_stamp(message.header.stamp, 10_000_000)
+            node._on_measurement(serialize_message(message))
+            assert node.health.monitors['y'].count == 1
+            assert node.law.integral is not None
         finally:
             node.destroy_node()

@@ -105,6 +105,13 @@ class StateFeedbackWiring:
         #: ``time.monotonic_ns()`` when the last accepted estimate arrived (None: none yet).
         self.last_estimate_ns = None
         self.stale = False
+        feedback = system.feedback
+        self.health = NodeHealth(
+            self, {'x_hat': monitor(system, 'x_hat', feedback.timeout, minimum_only=True),
+                   'reference': monitor(system, 'reference', 0.0, required=False,
+                                        rated=False)},
+            lambda: self.counters)
+        self.diagnostics = self.health.publisher
         self.publisher = self.topic_publisher(self.codecs['u_cmd'].message_class, 'u_cmd')
         self.topic_subscription(self.codecs['x_hat'].message_class, 'x_hat', self._on_estimate)
         self.topic_subscription(self.codecs['reference'].message_class, 'reference',
@@ -112,19 +119,11 @@ class StateFeedbackWiring:
         self.measurement_subscription = None
         self._subscribe_measurements(system)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
-        feedback = system.feedback
         self.watchdog = self.create_timer(feedback.timeout, self._on_watchdog, clock=steady,
                                           autostart=False)
         self.repeat_timer = self.create_timer(feedback.safe_command_period,
                                               self._publish_safe_command, clock=steady,
                                               autostart=False)
-        monitors = {'x_hat': monitor(system, 'x_hat', feedback.timeout, minimum_only=True),
-                    'reference': monitor(system, 'reference', 0.0, required=False,
-                                         rated=False)}
-        if feedback.integral is not None:  # the integrator takes the measured y
-            monitors['y'] = monitor(system, 'y', 0.0, minimum_only=True)
-        self.health = NodeHealth(self, monitors, lambda: self.counters)
-        self.diagnostics = self.health.publisher
         self.get_logger().info(f'K = {feedback.design.gain.tolist()}')
         if feedback.disturbance_gain is not None and feedback.disturbance_gain.any():
             self.get_logger().info(f'K_d = {feedback.disturbance_gain.tolist()} (disturbance '
@@ -133,6 +132,7 @@ class StateFeedbackWiring:
     def _subscribe_measurements(self, system) -> None:
         """Subscribe ``y`` once integral action needs it."""
         if system.feedback.integral is not None and self.measurement_subscription is None:
+            self.health.watch('y', monitor(system, 'y', 0.0, minimum_only=True))
             self.measurement_subscription = self.topic_subscription(
                 self.codecs['y'].message_class, 'y', self._on_measurement)
 

@@ -167,13 +167,15 @@ class NodeHealth:
         if self.nis is not None:
             self.nis.clear()
 
+    def watch(self, topic: str, monitor: InputMonitor) -> None:
+        """Check ``topic`` from now on (an input subscribed after the start)."""
+        monitor.start(time.monotonic_ns())
+        self.monitors[topic] = monitor
+
     def tick(self, topic: str, stamp_ns: Optional[int]) -> None:
         """Count a decoded message on ``topic`` (unstamped: stamped with its arrival)."""
-        monitor = self.monitors.get(topic)
-        if monitor is None:
-            return  # a topic the node watches without a health check of its own
         arrival = time.monotonic_ns()
-        monitor.tick(arrival if stamp_ns is None else stamp_ns, arrival)
+        self.monitors[topic].tick(arrival if stamp_ns is None else stamp_ns, arrival)
 
     def sample(self, innovation, nis: Optional[float], covariance) -> None:
         """Take one published estimate's innovation, NIS and covariance."""
