@@ -94,7 +94,10 @@ def test_covariance_innovation_covariance_and_nis_come_stamped_like_x_hat():
             sent = drive(observer, driver, executor, 0.5)
             # On a loaded machine some y are lost before the observer takes them (best-effort
             # queue of 10); what matters is that every x_hat comes with its P, S and NIS.
-            counts = lambda: {len(listener.messages[topic]) for topic in topics}  # noqa: E731
+
+            def counts() -> set:
+                return {len(listener.messages[topic]) for topic in topics}
+
             assert spin_until(executor, lambda: len(counts()) == 1 and
                               min(counts()) >= min(10, sent - 2), 5.0), counts()
             spin_until(executor, lambda: False, 0.2)  # nothing else was on its way
