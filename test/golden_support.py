@@ -161,7 +161,7 @@ def _write_config(name: str) -> None:
 
 
 def _layout(kind: str, names, values):
-    """A rosbags message of ``kind`` carrying ``values`` under ``names``."""
+    """Return a rosbags message of ``kind`` carrying ``values``."""
     types = _TYPESTORE.types
     if kind == 'float64_multi_array':
         layout = types['std_msgs/msg/MultiArrayLayout'](dim=[], data_offset=0)
