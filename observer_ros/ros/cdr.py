@@ -13,7 +13,11 @@
 # limitations under the License.
 
 """
-Vectorized CDR for the two vector message types, without ROS.
+The wire codec: CDR bytes of the two vector message types to and from numpy, without ROS.
+
+The nodes read and write their topics with it (:mod:`observer_ros.ros.messages`), the bag
+tools their recorded messages (:mod:`observer_ros.bags.storage`); it imports no rclpy, so
+the bag tools run without ROS.
 
 ``sensor_msgs/JointState`` and ``std_msgs/Float64MultiArray`` messages of one topic almost
 always share one layout (same joint names, same frame id, same lengths): only the stamp and
