@@ -168,6 +168,28 @@ def test_a_value_outside_its_range_is_refused_before_anything_changes():
         feedback.destroy_node()
 
 
+def test_a_refused_run_time_set_says_the_value_given_and_keeps_the_old_one():
+    with ros_context('--params-file', str(SEED003)) as context:
+        feedback = StateFeedbackNode(context=context)
+        driver = Driver(context)
+        with executor_with(context, feedback, driver.node) as executor:
+            timeout = feedback.get_parameter('feedback.timeout').value
+            for value, reason in (
+                    # before: "got 3600" (the offending digits hidden)
+                    (3600.001, 'feedback.timeout: expected seconds in [0.001, 3600], got '
+                               '3600.001'),
+                    # before: accepted, and the safe command replaced most commands
+                    (0.001, 'feedback.timeout: expected more than one sample period (0.01 '
+                            's at 100 Hz, from the 100 Hz assumed for a continuous model; '
+                            'set diagnostics.expected_rate), got 0.001: ')):
+                result = set_parameters(executor, driver.node, 'state_feedback',
+                                        feedback__timeout=value)
+                assert not result.successful
+                assert result.reason.startswith(reason), result.reason
+                assert feedback.get_parameter('feedback.timeout').value == timeout
+                assert feedback.system.feedback.timeout == timeout
+
+
 def test_a_negative_chen_seed_is_refused():
     path = CONFIG_DIR / 'seed001_third_order_chen.yaml'
     with ros_context('--params-file', str(path)) as context:
