@@ -14,6 +14,8 @@
 
 """Bags: CDR codec, record and replay round trips, robot-style layouts and bad bags."""
 
+import doctest
+import re
 import subprocess
 import zlib
 
@@ -24,12 +26,13 @@ from rosbags.rosbag2 import CompressionFormat, CompressionMode, Reader, StorageP
 from bag_support import (float64_array, JOINT_STATE, joint_state, robot_parameters, serialize,
                          TYPESTORE, write_robot_bag)
 from conftest import CONFIG_DIR, console_script
-from observer_ros.bags.cdr import decode, DecodeError, Encoder, MessageReader, MessageWriter
 from observer_ros.bags.mcap import McapError, read_mcap_topics
 from observer_ros.bags.replay import replay_bag, write_replay
 from observer_ros.bags.storage import (
     _mcap_files, BagError, read_topic, read_topics, TopicRequest, TopicToWrite, write_bag)
 from observer_ros.config import load_parameter_file, validate_parameters
+import observer_ros.ros.cdr
+from observer_ros.ros.cdr import decode, DecodeError, Encoder, MessageReader, MessageWriter
 from ros_support import run_lockstep
 
 STORAGES = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}
@@ -85,6 +88,50 @@ def test_one_message_reader_refuses_what_it_cannot_read():
         with pytest.raises(DecodeError, match=reason):
             reader.read(raw)
     assert reader.read(good) == (7, [1.0, 2.0])  # and reads the good layout again
+
+
+REPEATED = r"joints \['y1'\] named more than once"
+
+
+def test_a_repeated_joint_name_is_refused_by_both_decoders():
+    # before: ['y1', 'y1'] with [0.2, 999] was read as 999 (the last one won)
+    repeated = serialize(joint_state(7, ['y1', 'y1'], [0.2, 999.0]))
+    with pytest.raises(DecodeError, match=REPEATED):
+        MessageReader('joint_state', 'position', ['y1']).read(repeated)
+    good = serialize(joint_state(5, ['y1'], [0.1]))
+    _, values, errors = decode([good, repeated, good], 'joint_state', 'position', ['y1'])
+    assert list(errors) == [1] and re.search(REPEATED, errors[1]), errors
+    assert np.isnan(values[1]).all() and values[[0, 2], 0].tolist() == [0.1, 0.1]
+    # A repeated joint the model does not name is one of the ignored extra joints.
+    extra = serialize(joint_state(7, ['wrist', 'y1', 'wrist'], [1.0, 0.5, 2.0]))
+    assert MessageReader('joint_state', 'position', ['y1']).read(extra) == (7, [0.5])
+    assert decode([extra], 'joint_state', 'position', ['y1'])[1].tolist() == [[0.5]]
+
+
+def test_the_codec_examples_run():
+    result = doctest.testmod(observer_ros.ros.cdr)
+    assert result.failed == 0 and result.attempted > 0
+
+
+@pytest.mark.parametrize('storage', sorted(STORAGES))
+@pytest.mark.parametrize('topic', ['y', 'u'])
+def test_a_bag_with_a_repeated_joint_name_is_refused_saying_where(tmp_path, storage, topic):
+    bag = tmp_path / 'run'
+    with Writer(bag, version=9, storage_plugin=STORAGES[storage]) as writer:
+        connections = {key: writer.add_connection(f'/{key}', JOINT_STATE, typestore=TYPESTORE)
+                       for key in ('u', 'y')}
+        for index in range(10):
+            stamp = 10**9 + index * 10**7
+            for key in ('u', 'y'):
+                name = f'{key}1'
+                names, values = ([name, name], [0.2, 999.0]) if (
+                    key == topic and index == 5) else ([name], [0.2])
+                writer.write(connections[key], stamp + (key == 'y'),
+                             serialize(joint_state(stamp, names, values)))
+    with pytest.raises(BagError, match=rf'topic /{topic}: 1 of 10 messages do not hold the '
+                                       rf"1-vector \['{topic}1'\] \(first, message 5: "
+                                       rf"joints \['{topic}1'\] named more than once"):
+        replay_bag(bag, CONFIG_DIR / 'seed003_full_order.yaml')
 
 
 def test_one_message_reader_checks_every_fixed_byte_of_a_repeated_layout():

@@ -16,22 +16,36 @@
 The layers: the core imports nothing else of the package and no ROS; the schema no ROS.
 
 ``observer_ros.core`` is a library; ``observer_ros.config`` (the parameter schema) sits on it.
+The wire codec (``observer_ros.ros.cdr``) belongs to the ROS layer but imports no rclpy, so
+the bag tools (``observer_ros.bags``: storage and replay, no codec of their own) run without
+ROS.
 """
 
+import importlib
+import inspect
 import pkgutil
 import subprocess
 import sys
 
+import observer_ros.bags
 import observer_ros.config
 import observer_ros.core
+import observer_ros.ros.cdr
 
 ROS = ('rclpy', 'std_msgs', 'sensor_msgs', 'rosgraph_msgs', 'diagnostic_msgs')
 
 
+def submodules(package) -> list:
+    """Return the names of every module of ``package`` (a module alone: its own name)."""
+    if not hasattr(package, '__path__'):
+        return [package.__name__]
+    return [info.name for info in pkgutil.walk_packages(package.__path__,
+                                                        package.__name__ + '.')]
+
+
 def imported_by(package) -> tuple:
     """Import ``package`` whole in a new interpreter: its modules, ours and ROS's loaded."""
-    modules = [info.name for info in pkgutil.walk_packages(package.__path__,
-                                                           package.__name__ + '.')]
+    modules = submodules(package)
     script = (
         'import importlib, sys\n'
         f'for name in {modules!r}:\n'
@@ -55,3 +69,28 @@ def test_the_parameter_schema_imports_no_ros():
     modules, _, ros = imported_by(observer_ros.config)
     assert 'observer_ros.config.system' in modules
     assert ros == []
+
+
+def test_the_wire_codec_imports_no_ros():
+    _, loaded, ros = imported_by(observer_ros.ros.cdr)
+    assert ros == []
+    assert loaded == ['observer_ros.ros', 'observer_ros.ros.cdr']
+
+
+def test_the_bag_tools_import_no_ros_and_hold_no_wire_codec():
+    modules, loaded, ros = imported_by(observer_ros.bags)
+    assert 'observer_ros.bags.storage' in modules
+    assert ros == []
+    assert [name for name in loaded if name.startswith('observer_ros.ros')] == [
+        'observer_ros.ros', 'observer_ros.ros.cdr']
+    # Nothing of the codec is defined under bags/: what they use of it is the codec's own.
+    codec = {name for name, value in vars(observer_ros.ros.cdr).items()
+             if getattr(value, '__module__', None) == observer_ros.ros.cdr.__name__}
+    for name in modules:
+        module = importlib.import_module(name)
+        defined = {key for key, value in vars(module).items()
+                   if (inspect.isclass(value) or inspect.isfunction(value))
+                   and value.__module__ == name}
+        assert not defined & codec, (name, sorted(defined & codec))
+        for key in set(vars(module)) & codec:
+            assert getattr(module, key) is getattr(observer_ros.ros.cdr, key), (name, key)

@@ -194,6 +194,13 @@ REJECTED = {
     'read-only model': ({'model__A': [0.0, 1.0, 0.0, 0.0]}, 'read-only'),
     'negative interval resolution': ({'observer__interval_resolution': -0.001},
                                      'observer.interval_resolution: expected seconds'),
+    # before: accepted, and every 10 ms interval was designed as 0.5 s
+    'interval resolution of a sample period or more': (
+        {'observer__interval_resolution': 0.5}, 'observer.interval_resolution: expected 0 '
+        '(exact intervals) or seconds below one sample period (0.01 s at 100 Hz, from the '
+        '100 Hz assumed for a continuous model; set diagnostics.expected_rate), got 0.5'),
+    'interval resolution with more digits than the range': (
+        {'observer__interval_resolution': 1000000.001}, 'got 1000000.001'),
 }
 
 

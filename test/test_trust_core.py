@@ -20,6 +20,7 @@ sample, however wrong, puts a non-finite or out-of-range value out or captures t
 """
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -27,6 +28,7 @@ import pytest
 from conftest import CONFIG_DIR
 from observer_ros.config import (
     DOUBLE, INTEGER, load_parameter_file, PARAMETERS, validate_parameters)
+from observer_ros.config.schema import node_parameters, OBSERVER, PLANT
 from observer_ros.core.design.full_order import design_full_order
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.estimators import make_estimator
@@ -131,6 +133,87 @@ def test_values_that_break_the_loop_are_refused(name, value, reason):
         params['feedback.input_limits'] = [-1.0, 1.0]
     with pytest.raises(ConfigError, match=reason):
         validate_parameters(params)
+
+
+#: ``(parameter, value, expected, a rate in Hz it works at)``: a time valid alone that
+#: cannot work at 100 Hz.
+AGAINST_THE_PERIOD = [
+    # before: accepted, and every 10 ms interval was designed as 0.5 s (the loop diverged)
+    ('observer.interval_resolution', 0.5, r'0 \(exact intervals\) or seconds below one '
+                                          r'sample period', 1.0),
+    # before: accepted, and the safe command won 198 of 200 samples
+    ('feedback.timeout', 0.001, 'more than one sample period', 2000.0),
+    ('observer.max_gap', 0.005, 'more than one sample period', 1000.0),  # restarts
+    ('diagnostics.stale_timeout', 0.01, r'0 \(automatic\) or more than one sample period',
+     1000.0),
+    ('plant.command_timeout', 0.01, 'more than one sample period', None),
+]
+
+
+@pytest.mark.parametrize('name,value,expected,works_at', AGAINST_THE_PERIOD,
+                         ids=[case[0] for case in AGAINST_THE_PERIOD])
+def test_a_time_that_cannot_work_at_the_sample_period_is_refused(name, value, expected,
+                                                                 works_at):
+    with pytest.raises(ConfigError, match=rf'^{re.escape(name)}: expected {expected} \(0\.01 '
+                                          rf's at 100 Hz, from plant\.rate_hz\), got '
+                                          rf'{re.escape(str(value))}: '):
+        validate_parameters(dict(SEED003, **{name: value}))
+    if works_at is None:  # the plant's own timeout follows the plant's rate only
+        return
+    # The period is the inputs' expected rate when one is set ...
+    validate_parameters(dict(SEED003, **{name: value, 'diagnostics.expected_rate': works_at}))
+    # ... and without any rate a continuous model's 100 Hz is assumed, saying so.
+    unknown = {key: item for key, item in SEED003.items() if key != 'plant.rate_hz'}
+    with pytest.raises(ConfigError, match='from the 100 Hz assumed for a continuous '
+                                          'model; set diagnostics.expected_rate'):
+        validate_parameters(dict(unknown, **{name: value}))
+
+
+def test_each_node_checks_its_own_times_against_the_period():
+    # A discrete model at 1 Hz: the observer's own parameters are fine; the plant's
+    # default command timeout (0.5 s) is below its period. Before, that default of a
+    # parameter the observer does not declare refused the observer itself.
+    model = {'model.A': [0.5], 'model.B': [1.0], 'model.C': [1.0], 'model.dt': 1.0,
+             'observer.poles': ['0.1'], 'observer.max_gap': 5.0}
+    observer = {spec.name: spec.default for spec in node_parameters(OBSERVER)}
+    system = validate_parameters(dict(observer, **model))
+    assert system.plant.rate_hz == 1.0
+    plant = {spec.name: spec.default for spec in node_parameters(PLANT)}
+    with pytest.raises(ConfigError, match=r'^plant\.command_timeout: expected more than one '
+                                          r'sample period \(1 s at 1 Hz, from model\.dt\)'):
+        validate_parameters(dict(plant, **model))
+    # The observer's default gap (1 s) is one period at 1 Hz: every interval a restart.
+    del model['observer.max_gap']
+    with pytest.raises(ConfigError, match=r'^observer\.max_gap: expected more than one'):
+        validate_parameters(dict(observer, **model))
+
+
+def test_integral_outputs_that_can_have_no_effect_are_refused():
+    without_inputs = {'model.A': [0.0, 1.0, -2.0, -3.0], 'model.B': [], 'model.C': [1.0, 0.0],
+                      'observer.poles': ['-5', '-6'], 'feedback.integral_outputs': ['y1']}
+    # before: accepted silently
+    with pytest.raises(ConfigError, match=r'^feedback\.integral_outputs: the model has no '
+                                          r'inputs \(model\.B is empty, m = 0\)'):
+        validate_parameters(without_inputs)
+    without_feedback = dict(without_inputs, **{'model.B': [0.0, 1.0]})
+    with pytest.raises(ConfigError, match=r'^feedback\.integral_outputs: integral action '
+                                          r'needs the state feedback'):
+        validate_parameters(without_feedback)
+
+
+@pytest.mark.parametrize('name,value,shown', [
+    ('feedback.timeout', 3600.001, '3600.001'),  # before: "got 3600"
+    ('feedback.timeout', 3600.0000000000005, '3600.0000000000005'),
+    ('observer.max_gap', 1000000.1, '1000000.1'),  # before: "got 1e+06"
+    ('plant.seed', 2 ** 63, '9223372036854775808'),  # before: "got 9.22337e+18"
+    ('observer.gain', [1e12 + 1.0, 0.0], '1000000000001.0'),  # an entry beyond its limit
+])
+def test_a_refusal_shows_the_value_as_given(name, value, shown):
+    with pytest.raises(ConfigError, match=re.escape(f'{shown}') + '$') as caught:
+        validate_parameters(dict(SEED003, **{name: value}))
+    assert caught.value.parameter == name
+    if name == 'plant.seed':
+        assert '[0, 9223372036854775807]' in str(caught.value)  # the range exact too
 
 
 def test_a_numeric_breakdown_in_a_design_is_a_refusal_not_a_crash():

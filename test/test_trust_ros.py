@@ -35,6 +35,7 @@ from conftest import CONFIG_DIR, REPOSITORY
 from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.nodes.observer import ObserverNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
+from observer_ros.ros.messages import MalformedMessage
 from observer_ros.ros.parameters import EXECUTORS, make_executor
 from ros_support import executor_with, ros_context, spin_until
 from test_ros_nodes import Driver, joint_state, plant_samples, send, set_parameters
@@ -78,6 +79,31 @@ def test_every_invalid_stamp_is_dropped_and_counted_by_the_observer(observer_set
     assert observer.counters()['malformed'] == bad
     got = np.array([list(m.position) for m in driver.estimates])
     assert np.array_equal(got, clean_estimates(system, samples))
+
+
+def test_a_repeated_joint_name_is_dropped_and_counted(observer_setup):  # noqa: F811
+    # before: ['y1', 'y1'] with [0.2, 999] was read as 999 (the last one won), x_hat jumped
+    # by 528 and malformed stayed 0; the same for an input
+    system, observer, driver, executor = observer_setup
+    samples = plant_samples(system, 8)
+    for index, (stamp, u, y) in enumerate(samples[:4]):
+        send(driver, executor, stamp, u, y, index + 1)
+    stamp = samples[4][0]
+    driver.u.publish(joint_state(stamp, ['u1', 'u1'], [0.2, 999.0]))
+    driver.y.publish(joint_state(stamp, ['y1', 'y1'], [0.2, 999.0]))
+    assert spin_until(executor, lambda: observer.counters()['malformed'] >= 2, 5.0)
+    for index, (stamp, u, y) in enumerate(samples[4:], start=4):
+        send(driver, executor, stamp, u, y, index + 1)
+    assert observer.counters()['malformed'] == 2
+    got = np.array([list(m.position) for m in driver.estimates])
+    assert np.array_equal(got, clean_estimates(system, samples))
+    # The message objects the codec also takes follow the same rule.
+    codec = observer.codecs['y']
+    with pytest.raises(MalformedMessage, match=r"^y: joints \['y1'\] named more than once"):
+        codec.decode(joint_state(stamp, ['y1', 'y1'], [0.2, 999.0]))
+    # A repeated joint the model does not name is one of the ignored extra joints.
+    assert codec.decode(joint_state(stamp, ['wrist', 'y1', 'wrist'], [1.0, 0.5, 2.0]))[
+        1].tolist() == [0.5]
 
 
 def test_the_latest_stamp_is_used_and_invalid_ones_dropped_by_state_feedback():
@@ -140,6 +166,28 @@ def test_a_value_outside_its_range_is_refused_before_anything_changes():
                 result.reason)
         assert feedback.system.feedback.timeout == timeout
         feedback.destroy_node()
+
+
+def test_a_refused_run_time_set_says_the_value_given_and_keeps_the_old_one():
+    with ros_context('--params-file', str(SEED003)) as context:
+        feedback = StateFeedbackNode(context=context)
+        driver = Driver(context)
+        with executor_with(context, feedback, driver.node) as executor:
+            timeout = feedback.get_parameter('feedback.timeout').value
+            for value, reason in (
+                    # before: "got 3600" (the offending digits hidden)
+                    (3600.001, 'feedback.timeout: expected seconds in [0.001, 3600], got '
+                               '3600.001'),
+                    # before: accepted, and the safe command replaced most commands
+                    (0.001, 'feedback.timeout: expected more than one sample period (0.01 '
+                            's at 100 Hz, from the 100 Hz assumed for a continuous model; '
+                            'set diagnostics.expected_rate), got 0.001: ')):
+                result = set_parameters(executor, driver.node, 'state_feedback',
+                                        feedback__timeout=value)
+                assert not result.successful
+                assert result.reason.startswith(reason), result.reason
+                assert feedback.get_parameter('feedback.timeout').value == timeout
+                assert feedback.system.feedback.timeout == timeout
 
 
 def test_a_negative_chen_seed_is_refused():

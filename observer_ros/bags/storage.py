@@ -34,8 +34,8 @@ from typing import Iterator, Optional, Sequence, Tuple
 
 import numpy as np
 
-from observer_ros.bags.cdr import decode, Encoder, MESSAGE_TYPES
 from observer_ros.bags.mcap import read_mcap_topics
+from observer_ros.ros.cdr import decode, Encoder, MESSAGE_TYPES
 
 STORAGES = ('mcap', 'sqlite3')
 

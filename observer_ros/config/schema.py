@@ -26,7 +26,7 @@ import json
 
 from observer_ros.core.arguments import (
     Argument, array as _array, BOOL, DOUBLE, ENTRY_LIMIT, INTEGER, matrix_text as _matrix,
-    STRING, STRING_ARRAY)
+    number_text, STRING, STRING_ARRAY)
 from observer_ros.core.arguments import seconds as _core_seconds
 from observer_ros.core.observers import observer_arguments, observer_types
 from observer_ros.core.observers.chen import SEED_MAX
@@ -151,11 +151,12 @@ OBSERVER_STREAM = (
              'Seconds: sample intervals are rounded to a multiple of this before the '
              'observer is discretized and designed for them (0: every interval exact). '
              'With jittered stamps and a continuous model, e.g. 1e-5 bounds the designs '
-             'to one per 10 us of interval instead of one per new interval.', 0.0, 1e6,
+             'to one per 10 us of interval instead of one per new interval. Below one '
+             'sample period (see diagnostics.expected_rate).', 0.0, 1e6,
              _OBS, dynamic=True),
     _seconds('observer.max_gap', 1.0, 'Seconds between measurements beyond which (or a '
-             'backward jump beyond which) the estimator restarts from the new sample '
-             '(0.001 ... 1e6).', 0.001, 1e6, _OBS),
+             'backward jump beyond which) the estimator restarts from the new sample; more '
+             'than one sample period (0.001 ... 1e6).', 0.001, 1e6, _OBS),
     _seconds('observer.clock_tolerance', 0.5, 'Seconds a measurement or input may be stamped '
              'ahead of the node clock; a later stamp is dropped and counted (future_stamp), '
              'so it cannot capture the timeline. 0 turns the check off (0 ... 1e6).', 0.0,
@@ -203,7 +204,8 @@ FEEDBACK_PARAMETERS = (
                                               'x_hat + K_i z (with feedback.gain)'), _FB,
             dynamic=True),
     _seconds('feedback.timeout', 0.5, 'Steady-clock seconds without an accepted x_hat after '
-             'which the safe command is published, with use_sim_time too (0.001 ... 3600).',
+             'which the safe command is published, with use_sim_time too; more than one '
+             'sample period (0.001 ... 3600).',
              0.001, 3600.0, _FB, dynamic=True),
     _values('feedback.safe_command', 'Command published when x_hat is stale or a command is '
             'beyond topics.u_cmd.limit, m values (default zeros; inside '
@@ -283,14 +285,16 @@ DIAGNOSTICS = (
     _spec('diagnostics.expected_rate', DOUBLE, 0.0, 'Hz the inputs (y and u; x_hat; u_cmd) '
           'are expected at: 0 (the default) follows the plant rate (plant.rate_hz for the '
           'plant, else 1 / model.dt for a discrete model, 100 Hz for a continuous one) '
-          '(0 ... 100000).', low=0.0, high=100000.0, unit='a rate in Hz'),
+          '(0 ... 100000). Its period is the sample period feedback.timeout, '
+          'observer.max_gap, observer.interval_resolution and diagnostics.stale_timeout are '
+          'checked against.', low=0.0, high=100000.0, unit='a rate in Hz'),
     _spec('diagnostics.rate_tolerance', DOUBLE, 0.5, 'Relative error of the measured rate of an '
           'input (from its stamps) beyond which the inputs status warns: 0.5 accepts 50 ... '
           '150 Hz for 100 Hz (0.01 ... 100).', low=0.01, high=100.0),
     _seconds('diagnostics.stale_timeout', 0.0, 'Steady-clock seconds without a message after '
              'which an input is stale (ERROR); 0 (the default): 10 expected periods, at least '
-             '0.5 s, for y and u; feedback.timeout for x_hat; plant.command_timeout for u_cmd '
-             '(0 ... 3600).', 0.0, 3600.0, ALL_NODES),
+             '0.5 s, for y and u; feedback.timeout for x_hat; plant.command_timeout for u_cmd; '
+             'else more than one sample period (0 ... 3600).', 0.0, 3600.0, ALL_NODES),
     _spec('diagnostics.nis_window', INTEGER, 50, 'Kalman filter: NIS samples whose mean is '
           'checked against its two-sided chi-square bounds (2 ... 100000).', _OBS, low=2,
           high=100000, unit='a count'),
@@ -340,8 +344,8 @@ def parameter_table() -> str:
     short = {PLANT: 'plant', OBSERVER: 'observer', FEEDBACK: 'feedback'}
     for spec in PARAMETERS:
         default = json.dumps(spec.default) if not isinstance(spec.default, str) else spec.default
-        limits = spec.range_text() or (f'abs <= {spec.entry_limit:g}' if spec.entry_limit
-                                       else '')
+        limits = spec.range_text() or (f'abs <= {number_text(spec.entry_limit)}'
+                                       if spec.entry_limit else '')
         nodes = 'all' if spec.nodes == ALL_NODES else ', '.join(short[n] for n in spec.nodes)
         rows.append(f'| `{spec.name}` | {spec.kind} | `{default}` | {limits} | '
                     f'{"yes" if spec.dynamic else "no"} | {nodes} | {spec.description} |')

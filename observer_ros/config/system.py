@@ -29,6 +29,7 @@ import numpy as np
 
 from observer_ros.config.names import named
 from observer_ros.config.schema import PARAMETER_SPECS, PARAMETERS, ROS_PARAMETERS
+from observer_ros.core.arguments import number_text
 from observer_ros.core.design.common import ObserverDesign
 from observer_ros.core.design.controller import (
     closed_loop_poles, controller_transfer_function, ControllerTransferFunction)
@@ -412,6 +413,9 @@ def _integral(params: dict, model: StateSpaceModel, poles, gain) -> Optional[Int
 def _feedback(params: dict, model: StateSpaceModel,
               disturbance: Optional[DisturbanceModel] = None) -> Optional[FeedbackSettings]:
     gain, pole_text = params['feedback.gain'] or None, params['feedback.poles']
+    if params['feedback.integral_outputs'] and model.n_inputs == 0:
+        raise ConfigError('feedback.integral_outputs', 'the model has no inputs (model.B is '
+                          'empty, m = 0): integral action is not available; leave it empty')
     if gain is None and not pole_text:
         if params['feedback.disturbance_rejection']:
             raise ConfigError('feedback.disturbance_rejection', 'expected feedback.gain or '
@@ -419,6 +423,11 @@ def _feedback(params: dict, model: StateSpaceModel,
         if params['feedback.integral_poles'] or params['feedback.integral_gain']:
             raise ConfigError('feedback.poles', 'integral action needs the state feedback '
                               'too: feedback.poles or feedback.gain')
+        if params['feedback.integral_outputs']:
+            raise ConfigError('feedback.integral_outputs', 'integral action needs the state '
+                              'feedback (feedback.poles or feedback.gain) and '
+                              'feedback.integral_poles or feedback.integral_gain; without '
+                              'them leave it empty')
         return None
     if model.n_inputs == 0:
         raise ConfigError('feedback.gain' if gain is not None else 'feedback.poles',
@@ -510,7 +519,7 @@ def plant_rate(params: Mapping, model: StateSpaceModel) -> float:
         return 1.0 / model.dt if model.is_discrete else DEFAULT_RATE_HZ
     if rate < 0.01:
         raise ConfigError('plant.rate_hz', f'expected 0 (the model rate) or a rate in '
-                          f'[0.01, 10000] Hz, got {rate:g}')
+                          f'[0.01, 10000] Hz, got {number_text(rate)}')
     if model.is_discrete and abs(rate * model.dt - 1.0) > 1e-9:
         raise ConfigError('plant.rate_hz', f'a discrete model with model.dt = {model.dt} s '
                           f'runs at {1.0 / model.dt:g} Hz, got {rate}')
@@ -569,10 +578,6 @@ def _plant(params: dict, model: StateSpaceModel,
         raise ConfigError('plant.lockstep', 'a model without inputs (model.B empty) has no '
                           'command to wait for: run the plant in real time')
     command_timeout = params['plant.command_timeout']
-    if command_timeout * rate <= 1.0:
-        raise ConfigError('plant.command_timeout', f'expected more than one sample period '
-                          f'(1 / plant.rate_hz = {1.0 / rate:g} s), got {command_timeout:g}: '
-                          f'every sample would find the command stale')
     return PlantSettings(rate_hz=rate, initial_state=initial_state,
                          process_noise=process_noise,
                          measurement_noise=params['plant.measurement_noise'],
@@ -590,6 +595,65 @@ def _check_interval_resolution(params: dict, model: StateSpaceModel) -> None:
     if resolution and model.is_discrete:
         raise ConfigError('observer.interval_resolution', f'a discrete model (model.dt = '
                           f'{model.dt}) has one period; expected 0, got {resolution}')
+
+
+def sample_rate(params: Mapping, model: StateSpaceModel, plant: bool = False) -> tuple:
+    """
+    Return ``(rate_hz, source)``: the rate the samples come at, and the parameter that sets it.
+
+    ``diagnostics.expected_rate``, else (and with ``plant`` always) the plant rate
+    (:func:`plant_rate`: ``plant.rate_hz``, ``1 / model.dt``, or 100 Hz for a continuous
+    model). The nodes watch their inputs against it and the time-like parameters are
+    checked against its period (:data:`PERIOD_RULES`).
+    """
+    expected = params['diagnostics.expected_rate']
+    if expected > 0 and not plant:
+        return expected, 'diagnostics.expected_rate'
+    rate = plant_rate(params, model)
+    if params['plant.rate_hz']:
+        return rate, 'plant.rate_hz'
+    if model.is_discrete:
+        return rate, 'model.dt'
+    return rate, (f'the {number_text(DEFAULT_RATE_HZ)} Hz assumed for a continuous model; set '
+                  + ('plant.rate_hz' if plant else 'diagnostics.expected_rate'))
+
+
+#: Time-like parameters checked against one sample period: ``(parameter, whether it
+#: follows the plant's rate (else the sample rate), what 0 means (None: not allowed),
+#: whether it must be below the period (else above), what would go wrong)``.
+PERIOD_RULES = (
+    ('plant.command_timeout', True, None, False, 'every sample would find the command '
+     'stale'),
+    ('feedback.timeout', False, None, False, 'the safe command would replace the commands '
+     'computed from most estimates'),
+    ('observer.max_gap', False, None, False, 'every sample interval would restart the '
+     'estimator'),
+    ('observer.interval_resolution', False, 'exact intervals', True, 'a sample interval '
+     'would be designed as a whole multiple of it, half a sample period or more off the '
+     'real one'),
+    ('diagnostics.stale_timeout', False, 'automatic', False, 'every input would be stale '
+     'between two samples'),
+)
+
+
+def _check_sample_period(params: dict, model: StateSpaceModel, given) -> None:
+    """
+    Refuse a time-like parameter that cannot work at the sample period (:data:`PERIOD_RULES`).
+
+    Only the parameters in ``given`` are checked: a node gives every parameter it declares,
+    so each node checks its own (not the defaults of another node's), a file what it sets.
+    """
+    for name, plant, zero, below, harm in PERIOD_RULES:
+        value = params[name]
+        if name not in given or (zero is not None and value == 0.0):
+            continue
+        rate, source = sample_rate(params, model, plant)
+        if (value * rate >= 1.0) if below else (value * rate <= 1.0):
+            expected = (f'0 ({zero}) or ' if zero else '') + (
+                'seconds below' if below else 'more than') + ' one sample period'
+            raise ConfigError(name, f'expected {expected} ({number_text(1.0 / rate)} s at '
+                              f'{number_text(rate)} Hz, from {source}), got '
+                              f'{number_text(value)}: {harm}')
 
 
 def _without_generator_modes(poles: np.ndarray, model: StateSpaceModel,
@@ -663,6 +727,7 @@ def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> Syst
                       complete['topics.x_hat.limit'], 'topics.x_hat.limit')
     feedback = _feedback(complete, plant_model, disturbance)
     plant = _plant(complete, model, disturbance)
+    _check_sample_period(complete, model, params)
     joint_states = _joint_states(complete, model)
     controller_tf, cl_poles, notes = None, None, []
     if observer is not None and feedback is not None and feedback.integral is not None:

@@ -40,6 +40,26 @@ ENTRY_LIMIT = 1e12
 _NUMBERS = (int, float, np.integer, np.floating)
 
 
+def number_text(value) -> str:
+    """
+    Return a number with every digit it has: ``3600.001`` reads ``3600.001``, never ``3600``.
+
+    The short ``g`` form when it is exact (``0.5``, ``1e+09``), else the shortest text that
+    reads back as the same float (``repr``); integers whole.
+
+    Examples
+    --------
+    >>> number_text(3600.001), number_text(1e9), number_text(0.5), number_text(2 ** 63 - 1)
+    ('3600.001', '1e+09', '0.5', '9223372036854775807')
+
+    """
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        return str(int(value))
+    value = float(value)
+    short = f'{value:g}'
+    return short if float(short) == value else repr(value)
+
+
 @dataclass(frozen=True)
 class Argument:
     """
@@ -99,8 +119,8 @@ class Argument:
         """Return the accepted range in words (empty when any value of the kind is)."""
         if self.low is None and self.high is None:
             return ''
-        low = '-inf' if self.low is None else f'{self.low:g}'
-        high = 'inf' if self.high is None else f'{self.high:g}'
+        low = '-inf' if self.low is None else number_text(self.low)
+        high = 'inf' if self.high is None else number_text(self.high)
         return f'{"(" if self.low_open else "["}{low}, {high}]'
 
     def _ranged(self, value):
@@ -108,7 +128,7 @@ class Argument:
         below = low is not None and (value <= low if self.low_open else value < low)
         if below or (high is not None and value > high):
             raise ConfigError(self.name, f'expected {self.unit} in {self.range_text()}, '
-                              f'got {value:g}')
+                              f'got {number_text(value)}')
         return value
 
     def coerce(self, value: Any) -> Any:
@@ -163,7 +183,8 @@ class Argument:
                                       f'{item}')
                 if self.entry_limit is not None and abs(item) > self.entry_limit:
                     raise ConfigError(name, f'expected entries of magnitude <= '
-                                      f'{self.entry_limit:g}, entry {index} is {item:g}')
+                                      f'{number_text(self.entry_limit)}, entry {index} is '
+                                      f'{number_text(item)}')
             return values
         return [item if isinstance(item, str) else str(item) for item in items]
 
@@ -187,4 +208,4 @@ def matrix_text(text: str) -> str:
 
 
 __all__ = ['Argument', 'BOOL', 'DOUBLE', 'DOUBLE_ARRAY', 'ENTRY_LIMIT', 'INTEGER', 'STRING',
-           'STRING_ARRAY', 'array', 'matrix_text', 'seconds']
+           'STRING_ARRAY', 'array', 'matrix_text', 'number_text', 'seconds']

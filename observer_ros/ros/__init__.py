@@ -12,4 +12,4 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""ROS 2 adapters: messages to arrays, parameters to core configuration, QoS."""
+"""ROS 2 adapters: the wire codec (without rclpy), messages to arrays, parameters, QoS."""

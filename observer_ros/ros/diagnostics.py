@@ -40,6 +40,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
+from observer_ros.config.system import sample_rate
 from observer_ros.core.health import (
     Check, combine, configuration_check, CounterWatch, covariance_values,
     ESTIMATOR_WARNING_COUNTERS, innovation_values, INPUT_WARNING_COUNTERS, InputMonitor,
@@ -53,9 +54,8 @@ __all__ = ['DIAGNOSTICS_TOPIC', 'DiagnosticsPublisher', 'NodeHealth', 'WARNING_C
 
 
 def expected_rate(system) -> float:
-    """``diagnostics.expected_rate``, or the plant rate when it is 0."""
-    configured = system.parameters['diagnostics.expected_rate']
-    return configured if configured > 0 else system.plant.rate_hz
+    """``diagnostics.expected_rate``, or the plant rate when it is 0 (the sample rate)."""
+    return sample_rate(system.parameters, system.model)[0]
 
 
 def status_message(check: Check, name: str, hardware_id: str) -> DiagnosticStatus:

@@ -22,7 +22,7 @@ Float64MultiArray`` carries the bare vector in ``data`` and no stamp: the receiv
 on arrival (ros2_control forward command controllers take this type).
 
 Nodes subscribe and publish serialized messages (``raw=True``): the codec reads and writes
-the CDR bytes directly (:mod:`observer_ros.bags.cdr`, the same code as the bag tools), which
+the CDR bytes directly (:mod:`observer_ros.ros.cdr`, the same code as the bag tools), which
 skips building Python message objects on the hot path. Message objects are accepted too.
 """
 
@@ -35,11 +35,11 @@ from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
-from observer_ros.bags.cdr import (
-    DecodeError, HEADER, JOINT_STATE_FIELDS, MessageReader, MessageWriter, ORIGIN,
-    parse_layout, STAMP)
 from observer_ros.config import System
 from observer_ros.config.schema import topic_names
+from observer_ros.ros.cdr import (
+    DecodeError, HEADER, joint_order, JOINT_STATE_FIELDS, MessageReader, MessageWriter,
+    ORIGIN, parse_layout, STAMP)
 
 MESSAGE_CLASSES = {'joint_state': JointState, 'float64_multi_array': Float64MultiArray}
 
@@ -160,13 +160,10 @@ class VectorCodec:
         key = tuple(joint_names)
         order = self._order_cache.get(key)
         if order is None:
-            index = {name: position for position, name in enumerate(key)}
-            missing = [name for name in self.names if name not in index]
-            if missing:
-                raise MalformedMessage(
-                    f'{self.topic}: joints {missing} missing from the JointState (it has '
-                    f'{list(key)})')
-            order = [index[name] for name in self.names]
+            try:
+                order = joint_order(key, self.names)
+            except DecodeError as e:
+                raise MalformedMessage(f'{self.topic}: {e}') from None
             if len(self._order_cache) < 64:
                 self._order_cache[key] = order
         return order

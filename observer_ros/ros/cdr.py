@@ -13,7 +13,11 @@
 # limitations under the License.
 
 """
-Vectorized CDR for the two vector message types, without ROS.
+The wire codec: CDR bytes of the two vector message types to and from numpy, without ROS.
+
+The nodes read and write their topics with it (:mod:`observer_ros.ros.messages`), the bag
+tools their recorded messages (:mod:`observer_ros.bags.storage`); it imports no rclpy, so
+the bag tools run without ROS.
 
 ``sensor_msgs/JointState`` and ``std_msgs/Float64MultiArray`` messages of one topic almost
 always share one layout (same joint names, same frame id, same lengths): only the stamp and
@@ -131,12 +135,55 @@ def _fixed_mask(layout: Layout) -> np.ndarray:
     return mask
 
 
-def _order(layout: Layout, names: Sequence[str]) -> list:
-    index = {name: position for position, name in enumerate(layout.names)}
-    missing = [name for name in names if name not in index]
+def joint_order(given: Sequence[str], wanted: Sequence[str]) -> list:
+    """
+    Return where each wanted joint sits among a JointState's names: the one name rule.
+
+    Extra joints are ignored and order does not matter (``/joint_states`` of a real robot);
+    a wanted joint named twice makes the message malformed, since which of its values is
+    meant is unknown. The nodes (:class:`observer_ros.ros.messages.VectorCodec`) and the
+    bag tools (:func:`decode`, :class:`MessageReader`) read names with it.
+
+    Parameters
+    ----------
+    given : sequence of str
+        The message's ``name`` field.
+    wanted : sequence of str
+        The joints to read, in vector order.
+
+    Returns
+    -------
+    list of int
+        The position in ``given`` of each wanted name.
+
+    Raises
+    ------
+    DecodeError
+        A wanted joint is missing or named more than once.
+
+    Examples
+    --------
+    >>> joint_order(['wrist', 'y2', 'y1'], ['y1', 'y2'])
+    [2, 1]
+    >>> joint_order(['y1', 'y1'], ['y1'])  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    observer_ros.ros.cdr.DecodeError: joints ['y1'] named more than once ...
+
+    """
+    index: dict = {}
+    repeated = []
+    for position, name in enumerate(given):
+        if index.setdefault(name, position) != position:
+            repeated.append(name)
+    missing = [name for name in wanted if name not in index]
     if missing:
-        raise DecodeError(f'joints {missing} missing (the message has {list(layout.names)})')
-    return [index[name] for name in names]
+        raise DecodeError(f'joints {missing} missing (the message has {list(given)})')
+    repeated = [name for name in wanted if name in repeated]
+    if repeated:
+        raise DecodeError(f'joints {repeated} named more than once (the message has '
+                          f'{list(given)})')
+    return [index[name] for name in wanted]
 
 
 def _select(layout: Layout, kind: str, field: str, names: Sequence[str]) -> tuple:
@@ -145,7 +192,7 @@ def _select(layout: Layout, kind: str, field: str, names: Sequence[str]) -> tupl
         offset, count = layout.arrays[field]
         if count != len(layout.names):
             raise DecodeError(f'{len(layout.names)} names but {count} {field} values')
-        return offset, count, _order(layout, names)
+        return offset, count, joint_order(layout.names, names)
     offset, count = layout.arrays['data']
     if count != len(names):
         raise DecodeError(f'expected {len(names)} values in data, got {count}')
