@@ -41,6 +41,7 @@ from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
 
 from benchmarks.common import CONFIG_DIR, pyplot, REPOSITORY, Section
+from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.messages import ns_to_stamp
 from observer_ros.ros.parameters import EXECUTORS, publisher_qos, subscription_qos
 
@@ -66,7 +67,6 @@ GOAL_P50, GOAL_P99 = 1.05, 1.2
 STEP_NS = 10_000_000
 
 STAMP = struct.Struct('<iI')
-NANOSECONDS = 1_000_000_000
 
 
 def start(kind: str, executor: str, *ros_args: str) -> subprocess.Popen:

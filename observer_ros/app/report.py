@@ -18,8 +18,9 @@ import numpy as np
 
 from observer_ros.config.system import System
 from observer_ros.core.analysis import controllability, observability
-from observer_ros.core.design.controller import diophantine_controller, polynomial_text
 from observer_ros.core.errors import DesignError
+from observer_ros.core.loop_analysis.diophantine import diophantine_controller
+from observer_ros.core.loop_analysis.transfer_function import polynomial_text
 from observer_ros.core.poles import pole_pairs
 
 

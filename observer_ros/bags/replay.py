@@ -39,8 +39,8 @@ from observer_ros.bags.storage import (
 from observer_ros.config import load_parameter_file, System, validate_parameters
 from observer_ros.config.schema import JOINT_STATE_FIELDS, topic_names
 from observer_ros.core.evaluation import align
+from observer_ros.core.units import NANOSECONDS
 
-NANOSECONDS = 1_000_000_000
 
 #: Inputs, evenly spread, whose stamps are compared with the measurements' time base.
 TIME_BASE_SAMPLES = 4096

@@ -133,11 +133,13 @@ _EXPORTS = {
         'KalmanDesign', 'design_kalman', 'design_sampled_kalman'),
     'observer_ros.core.design.feedback': ('FeedbackDesign', 'design_feedback', 'reference_gain'),
     'observer_ros.core.design.integral': ('IntegralDesign', 'design_integral', 'augmented_pair'),
-    'observer_ros.core.design.controller': (
-        'ControllerTransferFunction', 'UnstableControllerWarning',
-        'controller_transfer_function', 'diophantine_controller', 'solve_diophantine',
-        'controller_state_space', 'closed_loop_matrix', 'closed_loop_poles'),
-    'observer_ros.core.control': ('StateFeedbackLaw', 'IntegralAction'),
+    'observer_ros.core.loop_analysis.transfer_function': ('ControllerTransferFunction',),
+    'observer_ros.core.loop_analysis.observer_controller': (
+        'UnstableControllerWarning', 'controller_transfer_function', 'controller_state_space'),
+    'observer_ros.core.loop_analysis.diophantine': (
+        'diophantine_controller', 'solve_diophantine'),
+    'observer_ros.core.loop_analysis.closed_loop': ('closed_loop_matrix', 'closed_loop_poles'),
+    'observer_ros.core.feedback_law': ('StateFeedbackLaw', 'IntegralAction'),
     'observer_ros.core.estimators': ('Estimator', 'Prediction', 'StateEstimator',
                                      'TimeVaryingKalman', 'make_estimator'),
     'observer_ros.core.streaming': ('StreamEstimator', 'ValueLimits'),

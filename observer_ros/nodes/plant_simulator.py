@@ -57,6 +57,7 @@ from rosgraph_msgs.msg import Clock as ClockMessage
 from observer_ros.config import PLANT
 from observer_ros.core.simulation import PlantSimulator
 from observer_ros.core.streaming import within_limit
+from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import MalformedMessage, ns_to_stamp, VectorCodec
 from observer_ros.ros.parameters import ConfiguredNode, publisher_qos, run_node
@@ -66,8 +67,6 @@ LOCKSTEP_SETTLE = 0.5
 
 #: Wall-clock seconds between two looks for the peers the plant waits for at start.
 START_POLL = 0.02
-
-NANOSECONDS = 1_000_000_000
 
 
 class PlantSimulatorNode(ConfiguredNode):
