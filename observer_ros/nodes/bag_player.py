@@ -54,7 +54,7 @@ from rosgraph_msgs.msg import Clock
 from observer_ros.bags.storage import absolute_topic, BagError, message_type, Playback
 from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.messages import stamp_to_ns
-from observer_ros.ros.parameters import volatile_qos
+from observer_ros.ros.qos import volatile_qos
 from observer_ros.signals import StopSignals
 
 

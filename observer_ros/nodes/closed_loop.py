@@ -39,7 +39,7 @@ from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.nodes.observer import ObserverNode
 from observer_ros.nodes.plant_simulator import plant_done, PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
-from observer_ros.ros.parameters import add_executor_argument, make_executor, spin_until
+from observer_ros.ros.executors import add_executor_argument, make_executor, spin_until
 from observer_ros.ros.recorder import TopicRecorder
 from observer_ros.signals import StopSignals
 

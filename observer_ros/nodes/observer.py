@@ -47,7 +47,8 @@ from observer_ros.core.streaming import EstimateSample, within_limit
 from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import JointStatesEncoder, MalformedMessage, VectorCodec
-from observer_ros.ros.parameters import ConfiguredNode, run_node
+from observer_ros.ros.parameters import ConfiguredNode
+from observer_ros.ros.run import run_node
 
 
 #: How long a node-clock reading serves the clock tolerance check (see ``_clock_for``).

@@ -60,7 +60,9 @@ from observer_ros.core.streaming import within_limit
 from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import MalformedMessage, ns_to_stamp, VectorCodec
-from observer_ros.ros.parameters import ConfiguredNode, publisher_qos, run_node
+from observer_ros.ros.parameters import ConfiguredNode
+from observer_ros.ros.qos import publisher_qos
+from observer_ros.ros.run import run_node
 
 #: Wall-clock seconds the lockstep plant waits after its peers are discovered.
 LOCKSTEP_SETTLE = 0.5

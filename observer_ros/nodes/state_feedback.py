@@ -55,7 +55,8 @@ from observer_ros.core.streaming import within_limit
 from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import LATEST_STAMP_NS, MalformedMessage, VectorCodec
-from observer_ros.ros.parameters import ConfiguredNode, run_node
+from observer_ros.ros.parameters import ConfiguredNode
+from observer_ros.ros.run import run_node
 
 
 def feedback_law(system) -> StateFeedbackLaw:

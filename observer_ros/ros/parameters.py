@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-ROS parameters to and from the core's one schema.
+ROS parameters to and from the core's one schema, declared with their schema types.
 
 :class:`ConfiguredNode` declares the parameters of :data:`observer_ros.config.PARAMETERS`
 its node uses (structural ones read-only), validates them with
@@ -22,86 +22,21 @@ change with the same function: a rejected change returns the reason and leaves e
 as it was; an accepted one is applied after it is set.
 """
 
-import argparse
-import sys
-import time
 from typing import Callable, Optional
 
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
-import rclpy
-from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
-from rclpy.qos import (
-    DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy)
-from rclpy.qos_overriding_options import QoSOverridingOptions
-from rclpy.signals import SignalHandlerOptions
 from rclpy.subscription import Subscription
-from rclpy.utilities import remove_ros_args
 
 from observer_ros.config import (
     node_parameters, PARAMETER_SPECS, ParameterSpec, System, validate_parameters)
 from observer_ros.core.arguments import (
     BOOL, DOUBLE, DOUBLE_ARRAY, INTEGER, STRING, STRING_ARRAY)
 from observer_ros.core.errors import ConfigError, DesignError
-from observer_ros.ros.messages import LATEST_STAMP_NS, stamp_problem, stamp_to_ns
-from observer_ros.signals import StopSignals
-
-
-def volatile_qos(depth: int, reliable: bool) -> QoSProfile:
-    """Keep-last ``depth``, volatile, reliable or best effort: the package's QoS shapes."""
-    return QoSProfile(depth=depth, history=HistoryPolicy.KEEP_LAST,
-                      reliability=(ReliabilityPolicy.RELIABLE if reliable
-                                   else ReliabilityPolicy.BEST_EFFORT),
-                      durability=DurabilityPolicy.VOLATILE)
-
-
-def subscription_qos() -> QoSProfile:
-    """
-    Return the QoS of the nodes' subscriptions: best effort, which matches every publisher.
-
-    A new profile per call: rclpy writes ``qos_overrides`` into the profile it is given, so
-    a shared one would carry one topic's override to every later topic.
-    """
-    return volatile_qos(10, reliable=False)
-
-
-def publisher_qos() -> QoSProfile:
-    """Return the QoS of the nodes' publishers: reliable, which every subscription matches."""
-    return volatile_qos(10, reliable=True)
-
-
-#: Users may override history, depth and reliability per topic with the standard
-#: ``qos_overrides./<topic>.<publisher|subscription>.<policy>`` parameters.
-QOS_OVERRIDES = QoSOverridingOptions.with_default_policies()
-
-
-def guard_clock(node: Node, on_invalid: Callable[[str], None]) -> None:
-    """
-    Make ``node`` drop ``/clock`` messages that are no time instead of dying on them.
-
-    rclpy's time source turns every ``/clock`` into a ``Time``, which raises inside the
-    subscription callback for a negative ``sec`` (and takes ``nanosec >= 1e9`` or times
-    beyond what a stamp holds as they come). With ``use_sim_time`` that kills the node; the
-    guard passes only valid times on and reports the others to ``on_invalid``.
-    """
-    source = node._time_source  # rclpy exposes no hook on the /clock callback
-    original = source.clock_callback
-
-    def checked(message) -> None:
-        stamp = message.clock
-        problem = stamp_problem(stamp.sec, stamp.nanosec)
-        if problem is None and stamp_to_ns(stamp) > LATEST_STAMP_NS:
-            problem = f'sec={stamp.sec} is beyond what a stamp holds'
-        if problem:
-            on_invalid(problem)
-            return
-        original(message)
-
-    source.clock_callback = checked  # a /clock subscription made later binds this one
-    if source._clock_sub is not None:
-        source._clock_sub.callback = checked
+from observer_ros.ros.clock import guard_clock
+from observer_ros.ros.qos import publisher_qos, QOS_OVERRIDES, subscription_qos
 
 
 #: The ROS parameter type of each schema kind.
@@ -328,104 +263,5 @@ class ConfiguredNode(SchemaParameters, Node):
         self.system = validate_parameters(self.current_parameters())
 
 
-#: Executors a node can spin on (``--executor``); the first is the default, the fastest in
-#: BENCHMARKS.md (latency and closed-loop rate). The MultiThreadedExecutor is not offered:
-#: each node's callbacks share one mutually exclusive group, so it adds only thread
-#: hand-offs, and a message arriving while a callback runs waits for the next wake-up
-#: (tens of milliseconds p50 for the observer in the latency benchmark).
-EXECUTORS = ('events', 'single')
-
-
-#: Seconds between two looks at the stop request while spinning.
-STOP_POLL = 0.1
-
-
-def make_executor(name: str, context=None) -> Executor:
-    """
-    Return the executor called ``name``.
-
-    ``'events'`` is rclpy's ``rclpy.experimental.EventsExecutor``, ``'single'`` the
-    ``SingleThreadedExecutor``.
-    """
-    if name == 'events':
-        from rclpy.experimental import EventsExecutor
-        return EventsExecutor(context=context)
-    if name == 'single':
-        return SingleThreadedExecutor(context=context)
-    raise ValueError(f'executor: expected one of {", ".join(EXECUTORS)}, got {name!r}')
-
-
-def spin_until(executor: Executor, done: Optional[Callable[[], bool]] = None,
-               timeout_sec: Optional[float] = None, context=None,
-               stop: Optional[Callable[[], bool]] = None) -> bool:
-    """
-    Spin ``executor`` until ``done()`` is true, the timeout passes or ROS shuts down.
-
-    Always ``spin_once`` in a loop: in the rclpy 7.1 wheels ``EventsExecutor.spin()``
-    delivers no message from another process, while ``spin_once`` delivers them. ``stop()``
-    (for example :attr:`observer_ros.signals.StopSignals.requested`) ends the spin early;
-    it is polled at least every :data:`STOP_POLL` seconds. Returns whether ``done()``
-    became true.
-    """
-    deadline = None if timeout_sec is None else time.monotonic() + timeout_sec
-    while rclpy.ok(context=context) and not (stop is not None and stop()):
-        if done is not None and done():
-            return True
-        if deadline is not None and time.monotonic() >= deadline:
-            break
-        executor.spin_once(timeout_sec=STOP_POLL if deadline is None else
-                           min(STOP_POLL, max(0.0, deadline - time.monotonic())))
-    return done is not None and done()
-
-
-def add_executor_argument(parser: argparse.ArgumentParser) -> None:
-    """Add the ``--executor`` option (one of :data:`EXECUTORS`, the first by default)."""
-    parser.add_argument('--executor', choices=EXECUTORS, default=EXECUTORS[0],
-                        help="rclpy executor: 'events' (rclpy.experimental.EventsExecutor, the "
-                        "fastest, default) or 'single' (SingleThreadedExecutor)")
-
-
-def executor_option(program: str, argv) -> str:
-    """Parse ``--executor`` from the non-ROS arguments (anything else is an error)."""
-    parser = argparse.ArgumentParser(
-        prog=program, description=f'ros2 run observer_ros {program} [--executor NAME] '
-        '--ros-args ...')
-    add_executor_argument(parser)
-    return parser.parse_args(remove_ros_args(argv)[1:]).executor
-
-
-def run_node(factory: Callable[[], Node], program: str, args=None,
-             done: Optional[Callable[[Node], Callable[[], bool]]] = None) -> int:
-    """
-    Spin one node the Jazzy way and return the exit status.
-
-    ``--executor`` (before ``--ros-args``) picks the executor. ``done(node)`` may return a
-    predicate that ends the spin. A bad configuration prints one line,
-    ``<program>: error: <parameter>: <reason>``, on stderr and returns 2. SIGINT and SIGTERM
-    stop the spin and return 0 after a clean shutdown; a second one is ignored
-    (:class:`observer_ros.signals.StopSignals`).
-    """
-    argv = sys.argv if args is None else list(args)
-    executor_name = executor_option(program, argv)
-    with StopSignals() as stop:
-        # rclpy's own handlers would raise KeyboardInterrupt inside callbacks and shut the
-        # context down from another thread: StopSignals replaces them.
-        rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
-        try:
-            node = factory()
-        except (ConfigError, DesignError) as e:
-            print(f'{program}: error: {e}', file=sys.stderr)
-            rclpy.try_shutdown()
-            return 2
-        executor = make_executor(executor_name)
-        try:
-            executor.add_node(node)
-            spin_until(executor, done(node) if done else None, stop=lambda: stop.requested)
-        except (KeyboardInterrupt, ExternalShutdownException):
-            pass
-        finally:
-            executor.remove_node(node)
-            node.destroy_node()
-            executor.shutdown()
-            rclpy.try_shutdown()
-    return 0
+__all__ = ['ConfiguredNode', 'PARAMETER_TYPES', 'SchemaParameters', 'coerced',
+           'type_problem']
