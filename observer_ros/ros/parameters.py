@@ -86,14 +86,21 @@ class SchemaParameters:
     The schema parameters of a node: a mixin for ``Node`` and ``LifecycleNode``.
 
     :meth:`declare_schema` declares the parameters of a ``role``
-    (:func:`observer_ros.config.node_parameters`) with their schema types and installs the
-    callbacks that vet every set-parameters request before anything changes: a parameter
-    set to NOT_SET or to another type is refused with a reason naming it (integers are taken
-    as doubles), and, once :attr:`system` holds a configuration, the merged values must
+    (:func:`observer_ros.config.node_parameters`) statically typed with their schema types
+    (:data:`PARAMETER_TYPES`) and installs the callbacks that vet every set-parameters
+    request before anything changes: a parameter set to NOT_SET or to another type is
+    refused with a reason naming it (integers are taken as doubles, in a parameter file as
+    in a request), and, once :attr:`system` holds a configuration, the merged values must
     pass :func:`~observer_ros.config.validate_parameters` and :meth:`vet_system`; an
     accepted change goes to :meth:`apply_system` after it is set. While :attr:`system` is
     None (a managed node not configured yet) only the types are checked: configuring
     validates.
+
+    A parameter file that gives a parameter a value of another type (a string for a
+    double) is the one case declared with dynamic typing: the parameter holds that value,
+    so that validation refuses it by name with the reason it always gave (a plain node stops
+    with it, a managed node stays unconfigured and may be set right); a statically typed
+    parameter cannot hold it.
     """
 
     def declare_schema(self, role: str, managed: bool = False) -> None:
@@ -109,29 +116,44 @@ class SchemaParameters:
         self.role = role
         self.managed = managed
         self.specs = {spec.name: spec for spec in node_parameters(role, managed)}
+        self.system: Optional[System] = None
+        self._pending: Optional[System] = None
         for spec in self.specs.values():
             self._declare(spec)
         self._warn_unknown_overrides()
-        self.system: Optional[System] = None
-        self._pending: Optional[System] = None
         self.add_pre_set_parameters_callback(self._coerce_parameters)
         self.add_on_set_parameters_callback(self._vet_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
 
     def _declare(self, spec: ParameterSpec) -> None:
-        # rclpy types an empty default list as a byte array and cannot declare a typed empty
-        # array: declare it, store the value with the schema type, then fix the descriptor.
-        descriptor = ParameterDescriptor(description=spec.description, dynamic_typing=True)
-        declared = self.declare_parameter(spec.name, spec.default, descriptor)
-        typed = coerced(spec, declared)
-        if typed is not declared:
-            self.set_parameters([typed])
-        self.set_descriptor(spec.name, ParameterDescriptor(
-            description=spec.description, read_only=self._read_only(spec), dynamic_typing=True,
-            additional_constraints=self._constraints(spec)))
+        # rclpy refuses an integer from a parameter file for a double parameter, and types an
+        # empty list as a byte array: read the file's value here (ignore_override), convert
+        # it to the schema type, declare the type alone, set the value, then make the
+        # parameter read-only (a read-only parameter cannot be set).
+        given = self._overrides().get(spec.name)
+        if given is None:
+            given = Parameter(spec.name, value=spec.default)
+        typed = coerced(spec, given)
+        read_only = not (spec.dynamic or self.managed)
+        if type_problem(spec, typed) is not None:  # see the class docstring
+            self.declare_parameter(spec.name, given.value, self._descriptor(
+                spec, read_only, dynamic=True), ignore_override=True)
+            return
+        self.declare_parameter(spec.name, PARAMETER_TYPES[spec.kind],
+                               self._descriptor(spec, False), ignore_override=True)
+        super().set_parameters_atomically([typed])
+        if read_only:
+            self.set_descriptor(spec.name, self._descriptor(spec, True))
 
-    def _read_only(self, spec: ParameterSpec) -> bool:
-        return not (spec.dynamic or self.managed)
+    def _descriptor(self, spec: ParameterSpec, read_only: bool,
+                    dynamic: bool = False) -> ParameterDescriptor:
+        return ParameterDescriptor(
+            description=spec.description, read_only=read_only, dynamic_typing=dynamic,
+            type=0 if dynamic else PARAMETER_TYPES[spec.kind].value,
+            additional_constraints=self._constraints(spec))
+
+    def _overrides(self) -> dict:
+        return getattr(self, '_parameter_overrides', {})  # rclpy keeps no public copy
 
     @staticmethod
     def _constraints(spec: ParameterSpec) -> str:
@@ -142,7 +164,7 @@ class SchemaParameters:
     def _warn_unknown_overrides(self) -> None:
         """Warn about names of this node's sections in the parameter file that none has."""
         sections = {name.split('.', 1)[0] + '.' for name in self.specs}
-        given = getattr(self, '_parameter_overrides', {})  # rclpy keeps no public copy
+        given = self._overrides()
         unknown = sorted(name for name in given if name.startswith(tuple(sections))
                          and name not in PARAMETER_SPECS)
         for name in unknown:
@@ -162,20 +184,49 @@ class SchemaParameters:
         return [coerced(self.specs[p.name], p) if p.name in self.specs else p
                 for p in parameters]
 
-    def _vet_parameters(self, parameters) -> SetParametersResult:
-        merged = self.current_parameters()
-        touched = False
+    def set_parameters(self, parameter_list: list) -> list:
+        """Set each parameter on its own, as rclpy does, with :meth:`set_parameters_atomically`."""
+        return [self.set_parameters_atomically([parameter]) for parameter in parameter_list]
+
+    def set_parameters_atomically(self, parameter_list: list) -> SetParametersResult:
+        """
+        Set the parameters all together or none, the schema's refusals coming first.
+
+        rclpy checks a statically typed parameter's type before any callback, with a reason
+        that names no parameter: a schema parameter that is NOT_SET or of another type
+        (after the integer-to-double conversion), or that cannot change now, is refused
+        here first with :func:`type_problem`'s or :meth:`change_problem`'s reason, in the
+        order given. Undeclared and read-only parameters are left to rclpy, which raises or
+        refuses before anything else, as with dynamic typing.
+        """
+        refusal = self._refusal(parameter_list)
+        if refusal is not None:
+            return refusal
+        return super().set_parameters_atomically(parameter_list)
+
+    def _refusal(self, parameters: list) -> Optional[SetParametersResult]:
+        if not all(self.has_parameter(parameter.name) for parameter in parameters):
+            return None  # rclpy raises ParameterNotDeclaredException
+        for parameter in parameters:
+            if self.describe_parameter(parameter.name).read_only:
+                return super().set_parameters_atomically([parameter])  # rclpy's refusal
         for parameter in parameters:
             spec = self.specs.get(parameter.name)
             if spec is None:
                 continue
-            problem = type_problem(spec, parameter) or self.change_problem(spec)
+            problem = type_problem(spec, coerced(spec, parameter)) or self.change_problem(spec)
             if problem:
-                self._pending = None
-                self._restore_descriptors(parameters)
                 return SetParametersResult(successful=False, reason=problem)
-            merged[parameter.name] = parameter.value
-            touched = True
+        return None
+
+    def _vet_parameters(self, parameters) -> SetParametersResult:
+        # Types and changes were vetted by set_parameters_atomically; here: the values.
+        merged = self.current_parameters()
+        touched = False
+        for parameter in parameters:
+            if parameter.name in self.specs:
+                merged[parameter.name] = parameter.value
+                touched = True
         if not touched or self.system is None:
             return SetParametersResult(successful=True)
         try:
@@ -185,16 +236,6 @@ class SchemaParameters:
             self._pending = None
             return SetParametersResult(successful=False, reason=str(e))
         return SetParametersResult(successful=True)
-
-    def _restore_descriptors(self, parameters) -> None:
-        # rclpy retypes a dynamically typed parameter's descriptor to the requested type
-        # before asking this node; a refused request must leave the schema type shown.
-        for parameter in parameters:
-            spec = self.specs.get(parameter.name)
-            if spec is not None:
-                self.set_descriptor(spec.name, ParameterDescriptor(
-                    description=spec.description, read_only=self._read_only(spec),
-                    dynamic_typing=True, additional_constraints=self._constraints(spec)))
 
     def _apply_parameters(self, parameters) -> None:
         if self._pending is None:
