@@ -44,11 +44,11 @@ def test_every_schema_parameter_is_declared_with_its_type(node_class):
             assert len(node.specs) > 20
             for name, spec in node.specs.items():
                 descriptor = node.describe_parameter(name)
-                expected = PARAMETER_TYPES[spec.kind]
+                expected = PARAMETER_TYPES[spec.value_type]
                 assert (descriptor.type, descriptor.dynamic_typing) == (expected.value, False)
                 assert node.get_parameter(name).type_ == expected, name
                 assert descriptor.read_only == (not (spec.dynamic or node.managed)), name
-                assert descriptor.additional_constraints.startswith(spec.kind)
+                assert descriptor.additional_constraints.startswith(spec.value_type)
         finally:
             node.destroy_node()
 

@@ -74,7 +74,7 @@ def as_arrays(out):
 
 # --- parameters ---------------------------------------------------------------------------
 
-RANGED = [spec for spec in PARAMETERS if spec.kind in (DOUBLE, INTEGER)
+RANGED = [spec for spec in PARAMETERS if spec.value_type in (DOUBLE, INTEGER)
           and (spec.low is not None or spec.high is not None)]
 
 
@@ -83,11 +83,11 @@ def outside(spec):
     values = []
     if spec.low is not None:
         values += [spec.low if spec.low_open else spec.low - max(abs(spec.low) * 1e-3, 1),
-                   -1e300 if spec.kind == DOUBLE else -2 ** 63]
+                   -1e300 if spec.value_type == DOUBLE else -2 ** 63]
     if spec.high is not None:
         values += [spec.high + max(abs(spec.high) * 1e-3, 1),
-                   1e300 if spec.kind == DOUBLE else 2 ** 63 - 1]
-    values = [int(v) if spec.kind == INTEGER else v for v in values]
+                   1e300 if spec.value_type == DOUBLE else 2 ** 63 - 1]
+    values = [int(v) if spec.value_type == INTEGER else v for v in values]
     low = -math.inf if spec.low is None else spec.low
     high = math.inf if spec.high is None else spec.high
     return [v for v in values if v < low or v > high or (spec.low_open and v == low)]
@@ -95,7 +95,7 @@ def outside(spec):
 
 def test_every_number_parameter_has_a_range():
     for spec in PARAMETERS:
-        if spec.kind in (DOUBLE, INTEGER):
+        if spec.value_type in (DOUBLE, INTEGER):
             assert spec in RANGED, spec.name
 
 

@@ -39,7 +39,7 @@ from observer_ros.ros.clock import guard_clock
 from observer_ros.ros.qos import publisher_qos, QOS_OVERRIDES, subscription_qos
 
 
-#: The ROS parameter type of each schema kind.
+#: The ROS parameter type of each schema value type.
 PARAMETER_TYPES = {
     DOUBLE: Parameter.Type.DOUBLE, DOUBLE_ARRAY: Parameter.Type.DOUBLE_ARRAY,
     STRING: Parameter.Type.STRING, STRING_ARRAY: Parameter.Type.STRING_ARRAY,
@@ -54,16 +54,16 @@ def coerced(spec: ParameterSpec, parameter: Parameter) -> Parameter:
     become strings for pole lists; anything else is returned as it is, for the validation
     to refuse with a reason.
     """
-    kind, value, given = spec.kind, parameter.value, parameter.type_
-    if kind == DOUBLE and given == Parameter.Type.INTEGER:
+    value_type, value, given = spec.value_type, parameter.value, parameter.type_
+    if value_type == DOUBLE and given == Parameter.Type.INTEGER:
         return Parameter(parameter.name, Parameter.Type.DOUBLE, float(value))
-    if kind == DOUBLE_ARRAY and given in (Parameter.Type.INTEGER_ARRAY,
-                                          Parameter.Type.BYTE_ARRAY) and (
+    if value_type == DOUBLE_ARRAY and given in (Parameter.Type.INTEGER_ARRAY,
+                                                Parameter.Type.BYTE_ARRAY) and (
             given == Parameter.Type.INTEGER_ARRAY or len(value) == 0):
         return Parameter(parameter.name, Parameter.Type.DOUBLE_ARRAY,
                          [float(item) for item in value])
-    if kind == STRING_ARRAY and (given in (Parameter.Type.DOUBLE_ARRAY,
-                                           Parameter.Type.INTEGER_ARRAY) or (
+    if value_type == STRING_ARRAY and (given in (Parameter.Type.DOUBLE_ARRAY,
+                                                 Parameter.Type.INTEGER_ARRAY) or (
             given == Parameter.Type.BYTE_ARRAY and len(value) == 0)):
         return Parameter(parameter.name, Parameter.Type.STRING_ARRAY,
                          [str(item) for item in value])
@@ -75,9 +75,9 @@ def type_problem(spec: ParameterSpec, parameter: Parameter) -> Optional[str]:
     if parameter.type_ == Parameter.Type.NOT_SET:
         return (f'{spec.name}: cannot be unset (NOT_SET); set its default '
                 f'{spec.default!r} instead')
-    if parameter.type_ != PARAMETER_TYPES[spec.kind]:
+    if parameter.type_ != PARAMETER_TYPES[spec.value_type]:
         given = parameter.type_.name.lower()
-        return f'{spec.name}: expected {spec.kind}, got {given} {parameter.value!r}'
+        return f'{spec.name}: expected {spec.value_type}, got {given} {parameter.value!r}'
     return None
 
 
@@ -139,7 +139,7 @@ class SchemaParameters:
             self.declare_parameter(spec.name, given.value, self._descriptor(
                 spec, read_only, dynamic=True), ignore_override=True)
             return
-        self.declare_parameter(spec.name, PARAMETER_TYPES[spec.kind],
+        self.declare_parameter(spec.name, PARAMETER_TYPES[spec.value_type],
                                self._descriptor(spec, False), ignore_override=True)
         super().set_parameters_atomically([typed])
         if read_only:
@@ -149,7 +149,7 @@ class SchemaParameters:
                     dynamic: bool = False) -> ParameterDescriptor:
         return ParameterDescriptor(
             description=spec.description, read_only=read_only, dynamic_typing=dynamic,
-            type=0 if dynamic else PARAMETER_TYPES[spec.kind].value,
+            type=0 if dynamic else PARAMETER_TYPES[spec.value_type].value,
             additional_constraints=self._constraints(spec))
 
     def _overrides(self) -> dict:
@@ -159,7 +159,7 @@ class SchemaParameters:
     def _constraints(spec: ParameterSpec) -> str:
         limits = spec.range_text() or (f'entries of magnitude <= {spec.entry_limit:g}'
                                        if spec.entry_limit else '')
-        return f'{spec.kind}{" in " + limits if limits else ""}'
+        return f'{spec.value_type}{" in " + limits if limits else ""}'
 
     def _warn_unknown_overrides(self) -> None:
         """Warn about names of this node's sections in the parameter file that none has."""
