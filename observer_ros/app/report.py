@@ -58,14 +58,14 @@ def _target(system: System, disturbance) -> str:
 
 
 def _disturbance_rows(system: System) -> list:
-    """Return one JSON row per disturbance: kind, entry, states and generator modes."""
+    """Return one JSON row per disturbance: waveform (as ``kind``), entry, states, modes."""
     if system.disturbance is None:
         return []
     rows = []
     model = system.model
     for disturbance in system.disturbance.disturbances:
         block = slice(disturbance.first_state, disturbance.first_state + disturbance.n_states)
-        rows.append({'name': disturbance.name, 'kind': disturbance.kind,
+        rows.append({'name': disturbance.name, 'kind': disturbance.waveform,
                      'entry': _target(system, disturbance),
                      'frequency': disturbance.frequency,
                      'states': list(disturbance.state_names),

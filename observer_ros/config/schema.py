@@ -143,7 +143,7 @@ MODEL = (
     _spec('model.state_names', STRING_ARRAY, [], 'n state names (default x1..xn).'),
     _spec('model.input_names', STRING_ARRAY, [], 'm input names (default u1..um).'),
     _spec('model.output_names', STRING_ARRAY, [], 'p output names (default y1..yp).'),
-    _spec('model.disturbances', STRING_ARRAY, [], 'Disturbance kinds, one per disturbance: '
+    _spec('model.disturbances', STRING_ARRAY, [], 'Disturbance waveforms, one per disturbance: '
           'constant (1 state) | ramp (2 states: value, rate) | sinusoid (2 states: value, '
           'rate); the observers estimate the plant augmented with their states (README, '
           'Disturbances). Empty: none.'),
