@@ -35,11 +35,12 @@ from observer_ros.core.design.integral import design_integral, IntegralDesign
 from observer_ros.core.disturbances import augment, augmented_noise, DisturbanceModel
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.estimators import StateEstimator
+from observer_ros.core.flat_matrices import (
+    covariance_from_flat, matrix_from_flat, vector_from_flat)
 from observer_ros.core.loop_analysis.closed_loop import closed_loop_poles
 from observer_ros.core.loop_analysis.observer_controller import controller_transfer_function
 from observer_ros.core.loop_analysis.transfer_function import ControllerTransferFunction
-from observer_ros.core.model import (
-    covariance_from_flat, matrix_from_flat, StateSpaceModel, vector_from_flat)
+from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.observers import observer_type, ObserverType
 from observer_ros.core.observers.common import parsed_poles
 from observer_ros.core.simulation import input_limits_from_flat

@@ -50,7 +50,8 @@ from scipy.linalg import expm
 
 from observer_ros.core.analysis import format_modes, pbh_lost_modes
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.model import matrix_from_flat, StateSpaceModel
+from observer_ros.core.flat_matrices import matrix_from_flat
+from observer_ros.core.model import StateSpaceModel
 
 #: Disturbance waveforms and their number of states.
 WAVEFORM_STATES = {'constant': 1, 'ramp': 2, 'sinusoid': 2}

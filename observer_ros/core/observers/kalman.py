@@ -32,7 +32,7 @@ from observer_ros.core.errors import ConfigError
 from observer_ros.core.estimators import Estimator
 from observer_ros.core.estimators.kalman import KalmanStep
 from observer_ros.core.estimators.time_varying_kalman import TimeVaryingKalman
-from observer_ros.core.model import covariance_from_flat
+from observer_ros.core.flat_matrices import covariance_from_flat
 from observer_ros.core.observers import ObserverType, register, ReportItem
 from observer_ros.core.observers.common import FORM
 
