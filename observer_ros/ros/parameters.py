@@ -126,24 +126,27 @@ class SchemaParameters:
         self.add_post_set_parameters_callback(self._apply_parameters)
 
     def _declare(self, spec: ParameterSpec) -> None:
-        # rclpy refuses an integer from a parameter file for a double parameter, and types an
-        # empty list as a byte array: read the file's value here (ignore_override), convert
-        # it to the schema type, declare the type alone, set the value, then make the
-        # parameter read-only (a read-only parameter cannot be set).
+        # rclpy refuses an integer from a parameter file for a double parameter: read the
+        # file's value here (ignore_override) and convert it to the schema type first.
         given = self._overrides().get(spec.name)
         if given is None:
             given = Parameter(spec.name, value=spec.default)
         typed = coerced(spec, given)
         read_only = not (spec.dynamic or self.managed)
+        declared_type = PARAMETER_TYPES[spec.value_type]
         if type_problem(spec, typed) is not None:  # see the class docstring
             self.declare_parameter(spec.name, given.value, self._descriptor(
                 spec, read_only, dynamic=True), ignore_override=True)
-            return
-        self.declare_parameter(spec.name, PARAMETER_TYPES[spec.value_type],
-                               self._descriptor(spec, False), ignore_override=True)
-        super().set_parameters_atomically([typed])
-        if read_only:
-            self.set_descriptor(spec.name, self._descriptor(spec, True))
+        elif Parameter.Type.from_parameter_value(typed.value) == declared_type:
+            self.declare_parameter(spec.name, typed.value, self._descriptor(spec, read_only),
+                                   ignore_override=True)
+        else:  # an empty list, which rclpy takes for a byte array: declare the type alone,
+            # set the value, then make it read-only (a read-only parameter cannot be set)
+            self.declare_parameter(spec.name, declared_type, self._descriptor(spec, False),
+                                   ignore_override=True)
+            super().set_parameters_atomically([typed])
+            if read_only:
+                self.set_descriptor(spec.name, self._descriptor(spec, True))
 
     def _descriptor(self, spec: ParameterSpec, read_only: bool,
                     dynamic: bool = False) -> ParameterDescriptor:
