@@ -50,11 +50,12 @@ Designs
     :class:`KalmanDesign`, :class:`FeedbackDesign`, :class:`ObserverRealization`);
     :func:`full_order_gain`, :func:`full_order_realization`,
     :func:`measured_first_transform`, :func:`reference_gain`.
-Observer-controller
+Observer-controller (the analysis in :mod:`observer_ros.core.loop_analysis`)
     :func:`controller_transfer_function`, :func:`diophantine_controller`,
     :func:`solve_diophantine`, :func:`controller_state_space`, :func:`closed_loop_matrix`,
     :func:`closed_loop_poles`, :class:`ControllerTransferFunction`,
-    :class:`UnstableControllerWarning`, :class:`StateFeedbackLaw`.
+    :class:`UnstableControllerWarning`, :class:`StateFeedbackLaw` (the run-time law,
+    :mod:`observer_ros.core.feedback_law`).
 Integral action
     :func:`design_integral`, :class:`IntegralDesign`, :func:`augmented_pair`,
     :class:`IntegralAction` (the servo law's integrator, with anti-windup).
