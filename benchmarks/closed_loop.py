@@ -35,7 +35,7 @@ from rclpy.parameter import Parameter
 from benchmarks.common import CONFIG_DIR, pyplot, REPOSITORY, Section
 from observer_ros.nodes.closed_loop import ClosedLoop
 from observer_ros.nodes.plant_simulator import LOCKSTEP_SETTLE
-from observer_ros.ros.parameters import make_executor
+from observer_ros.ros.executors import make_executor
 
 CONFIG = CONFIG_DIR / 'seed003_full_order.yaml'
 LOG = re.compile(r'simulated (\d+) samples; (\d+) applied .*first command at sample (\w+)')

@@ -41,8 +41,10 @@ from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
 
 from benchmarks.common import CONFIG_DIR, pyplot, REPOSITORY, Section
+from observer_ros.core.units import NANOSECONDS
+from observer_ros.ros.executors import EXECUTORS
 from observer_ros.ros.messages import ns_to_stamp
-from observer_ros.ros.parameters import EXECUTORS, publisher_qos, subscription_qos
+from observer_ros.ros.qos import publisher_qos, subscription_qos
 
 CONFIG = CONFIG_DIR / 'seed001_fourth_order.yaml'
 
@@ -66,7 +68,6 @@ GOAL_P50, GOAL_P99 = 1.05, 1.2
 STEP_NS = 10_000_000
 
 STAMP = struct.Struct('<iI')
-NANOSECONDS = 1_000_000_000
 
 
 def start(kind: str, executor: str, *ros_args: str) -> subprocess.Popen:
@@ -226,7 +227,7 @@ def run(smoke: bool, figures) -> Section:
                 'estimator and publishes `x_hat` and `innovation`. The plain relay builds '
                 'message objects both ways as an ordinary rclpy node does. The '
                 'MultiThreadedExecutor is not offered (see '
-                '`observer_ros.ros.parameters.EXECUTORS`).', '')
+                '`observer_ros.ros.executors.EXECUTORS`).', '')
     p50, p99 = ratios[EXECUTORS[0]]
     section.met = bool(p50 <= GOAL_P50 and p99 <= GOAL_P99)
     plt = pyplot()

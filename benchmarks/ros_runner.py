@@ -29,7 +29,8 @@ from sensor_msgs.msg import JointState
 from observer_ros.nodes.observer import ObserverNode
 from observer_ros.nodes.plant_simulator import plant_done, PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
-from observer_ros.ros.parameters import publisher_qos, run_node, subscription_qos
+from observer_ros.ros.qos import publisher_qos, subscription_qos
+from observer_ros.ros.run import run_node
 
 
 class Relay(Node):

@@ -11,3 +11,12 @@
 # WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
 # See the License for the specific language governing permissions and
 # limitations under the License.
+
+"""
+State observers and observer-based state feedback for ROS 2, in one room per layer.
+
+``core`` (models, designs, estimators, the event engine; no ROS), ``config`` (the parameter
+schema and its validation), ``app`` (health logic, reports, plots), ``ros`` (wiring to
+rclpy: messages, parameters, QoS, executors), ``nodes`` (the ROS 2 nodes), ``bags``
+(rosbag2 storage and replay) and ``tools`` (the command-line tools).
+"""

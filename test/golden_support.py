@@ -103,7 +103,7 @@ def closed_loop_record(name: str) -> dict:
     """Run the lockstep closed loop of a config; return every recorded topic's arrays."""
     from ros_support import overrides, ros_context
     from observer_ros.nodes.closed_loop import ClosedLoop
-    from observer_ros.ros.parameters import make_executor, spin_until
+    from observer_ros.ros.executors import make_executor, spin_until
     from observer_ros.ros.recorder import TopicRecorder
 
     with ros_context('--params-file', str(config_path(name))) as context:

@@ -31,7 +31,7 @@ from sensor_msgs.msg import JointState
 
 from conftest import CONFIG_DIR, console_script
 from observer_ros.nodes.closed_loop import ClosedLoop
-from observer_ros.ros.parameters import make_executor
+from observer_ros.ros.executors import make_executor
 
 
 @contextmanager

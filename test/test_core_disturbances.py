@@ -23,16 +23,16 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
+from observer_ros.app.report import design_summary
 from observer_ros.config import load_parameter_file, validate_parameters
-from observer_ros.config.report import design_summary
-from observer_ros.core.control import StateFeedbackLaw
 from observer_ros.core.disturbances import augment
 from observer_ros.core.errors import ConfigError
+from observer_ros.core.feedback_law import StateFeedbackLaw
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.simulation import PlantSimulator
+from observer_ros.core.units import NANOSECONDS
 from observer_ros.tools.design_observer import main as design_main
 
-NS = 1_000_000_000
 PERIOD_NS = 10_000_000
 LOAD, STEP_TIME = 0.5, 1.0
 
@@ -61,13 +61,13 @@ def _run(system, samples, law=None, u_open=lambda t: 0.0):
     times, truth, estimates = [], [], []
     u = np.zeros(system.model.n_inputs)
     for k in range(samples):
-        t = k * PERIOD_NS / NS
+        t = k * PERIOD_NS / NANOSECONDS
         estimate = estimator.update(k * PERIOD_NS, simulator.measure(), u).copy()
         times.append(t)
         truth.append(simulator.x.copy())
         estimates.append(estimate)
         u = law.command(estimate) if law is not None else np.array([u_open(t)])
-        simulator.step(u, PERIOD_NS / NS)
+        simulator.step(u, PERIOD_NS / NANOSECONDS)
     return np.array(times), np.array(truth), np.array(estimates)
 
 
@@ -86,7 +86,7 @@ def test_load_estimate_converges_inside_the_designed_envelope(kind):
     rho = np.abs(step.poles).max()
     if kind != 'kalman':  # the placed poles, sampled; Kalman: the DARE filter of the period
         slowest = system.observer.achieved_poles.real.max()
-        assert rho == pytest.approx(np.exp(slowest * PERIOD_NS / NS), rel=1e-6)
+        assert rho == pytest.approx(np.exp(slowest * PERIOD_NS / NANOSECONDS), rel=1e-6)
     _, vectors = np.linalg.eig(step.error)
     constant = np.linalg.cond(vectors)
     after = ~before

@@ -43,8 +43,8 @@ from observer_ros.core.estimators import make_estimator
 from observer_ros.core.estimators.base import Estimator
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.simulation import PlantSimulator
+from observer_ros.core.units import NANOSECONDS
 
-NS = 1_000_000_000
 X0 = np.array([3.0, 2.0, -3.0, -1.0])
 PERIODS_MS = [1, 10, 50]
 EXACT_RTOL = 1e-9
@@ -152,7 +152,7 @@ def run_and_compare(estimator, model, intervals_ns, error_matrix, inputs=None):
     stamp = 0
     for index, dt_ns in enumerate(intervals_ns):
         u = np.zeros(1) if inputs is None else inputs[index]
-        plant.step(u, dt_ns / NS)
+        plant.step(u, dt_ns / NANOSECONDS)
         stamp += int(dt_ns)
         estimator.update(stamp, plant.measure(), u)
         predicted = error_matrix(int(dt_ns)) @ predicted
@@ -232,7 +232,7 @@ def test_reduced_order_error_is_designed_product(plant, reduced_design, period_m
     dt = period_ms / 1000.0
     dt_ns = period_ms * 1_000_000
     estimator = make_estimator(reduced_design, initial_state=np.zeros(4))
-    reference = cached(lambda ns: reduced_error_matrix(plant, ns / NS, REDUCED_POLES))
+    reference = cached(lambda ns: reduced_error_matrix(plant, ns / NANOSECONDS, REDUCED_POLES))
     steps = int(round(2.0 / dt))
     actual, predicted = run_and_compare(estimator, plant, [dt_ns] * steps, reference)
     # The first sample makes the estimate agree with y: x_hat = [3, 0, 0, 0].
@@ -276,11 +276,11 @@ def jittered_intervals(seed, period_ns, total_ns, jitter):
 def test_reduced_order_jitter(plant, reduced_design, seed):
     nominal = make_estimator(reduced_design, initial_state=np.zeros(4))
     steady, _ = run_and_compare(nominal, plant, [10_000_000] * 200, lambda ns: np.eye(4))
-    intervals = jittered_intervals(seed, 10_000_000, 2 * NS, 0.5)
-    assert sum(intervals) == 2 * NS
+    intervals = jittered_intervals(seed, 10_000_000, 2 * NANOSECONDS, 0.5)
+    assert sum(intervals) == 2 * NANOSECONDS
     assert len(set(intervals)) > 100
     estimator = make_estimator(reduced_design, initial_state=np.zeros(4))
-    reference = cached(lambda ns: reduced_error_matrix(plant, ns / NS, REDUCED_POLES))
+    reference = cached(lambda ns: reduced_error_matrix(plant, ns / NANOSECONDS, REDUCED_POLES))
     actual, predicted = run_and_compare(estimator, plant, intervals, reference)
     assert_exact(actual, predicted)
     assert np.linalg.norm(actual[-1]) <= 2.0 * np.linalg.norm(steady[-1])
@@ -289,7 +289,7 @@ def test_reduced_order_jitter(plant, reduced_design, seed):
 @pytest.mark.parametrize('resolution_ns', [10_000, 1_000_000])
 def test_interval_resolution_rounds_intervals_and_bounds_designs(plant, reduced_design,
                                                                  resolution_ns):
-    intervals = jittered_intervals(5, 10_000_000, NS, 0.1)
+    intervals = jittered_intervals(5, 10_000_000, NANOSECONDS, 0.1)
     assert len(set(intervals)) > 90
     rng = np.random.default_rng(6)
     ys = rng.standard_normal((len(intervals) + 1, 1))
@@ -322,7 +322,7 @@ def test_reduced_order_with_input(plant, reduced_design):
     rng = np.random.default_rng(11)
     inputs = rng.uniform(-2.0, 2.0, size=(100, 1))
     estimator = make_estimator(reduced_design, initial_state=[1.0, -1.0, 0.5, 2.0])
-    reference = cached(lambda ns: reduced_error_matrix(plant, ns / NS, REDUCED_POLES))
+    reference = cached(lambda ns: reduced_error_matrix(plant, ns / NANOSECONDS, REDUCED_POLES))
     actual, predicted = run_and_compare(estimator, plant, [20_000_000] * 100, reference,
                                         inputs)
     assert_exact(actual, predicted)
@@ -337,7 +337,7 @@ def test_full_order_error_is_designed_product(plant, period_ms):
     dt = period_ms / 1000.0
     design = design_full_order(plant, poles=FULL_POLES)
     estimator = make_estimator(design, initial_state=np.zeros(4))
-    reference = cached(lambda ns: full_error_matrix(plant, ns / NS, FULL_POLES))
+    reference = cached(lambda ns: full_error_matrix(plant, ns / NANOSECONDS, FULL_POLES))
     rng = np.random.default_rng(period_ms)
     steps = int(round(1.0 / dt))
     inputs = rng.uniform(-1.0, 1.0, size=(steps, 1))
@@ -355,7 +355,8 @@ def test_chen_error_is_designed_product(plant, period_ms):
     dt = period_ms / 1000.0
     design = design_chen(plant, poles=CHEN_POLES, seed=3)
     estimator = make_estimator(design, initial_state=np.zeros(4))
-    reference = cached(lambda ns: chen_error_matrix(plant, ns / NS, design.f, design.gain))
+    reference = cached(lambda ns: chen_error_matrix(plant, ns / NANOSECONDS, design.f,
+                                                    design.gain))
     rng = np.random.default_rng(period_ms + 1)
     steps = int(round(1.0 / dt))
     inputs = rng.uniform(-1.0, 1.0, size=(steps, 1))
@@ -483,7 +484,7 @@ def test_replace_design_keeps_estimate_continuous(plant, reduced_design):
     simulator = PlantSimulator(plant, initial_state=X0)
     estimator.update(0, simulator.measure(), [0.0])
     for k in range(1, 31):
-        simulator.step([0.0], dt_ns / NS)
+        simulator.step([0.0], dt_ns / NANOSECONDS)
         estimator.update(k * dt_ns, simulator.measure(), [0.0])
     before, stamp = estimator.estimate, estimator.stamp_ns
     faster = design_reduced_order(plant, poles=[-20, -20, -20], coordinates='observability')
@@ -493,9 +494,9 @@ def test_replace_design_keeps_estimate_continuous(plant, reduced_design):
     # The next interval runs the new design from the old estimate: no jump.
     error = simulator.x - estimator.estimate
     scale = np.linalg.norm(error)
-    new_matrix = reduced_error_matrix(plant, dt_ns / NS, [-20, -20, -20])
+    new_matrix = reduced_error_matrix(plant, dt_ns / NANOSECONDS, [-20, -20, -20])
     for k in range(31, 61):
-        simulator.step([0.0], dt_ns / NS)
+        simulator.step([0.0], dt_ns / NANOSECONDS)
         estimator.update(k * dt_ns, simulator.measure(), [0.0])
         error = new_matrix @ error
         assert np.linalg.norm(simulator.x - estimator.estimate - error) <= EXACT_RTOL * scale
@@ -586,10 +587,10 @@ def test_mimo_step_matrices_are_exact(kind, period_ms):
     for _ in range(60):
         dt_ns = int(period_ms * 1_000_000 * (1.0 + rng.uniform(-0.3, 0.3)))
         u = rng.standard_normal(2)
-        delta, bd = sampled(model.a, model.b, dt_ns / NS)
+        delta, bd = sampled(model.a, model.b, dt_ns / NANOSECONDS)
         ad = np.eye(5) + delta
         previous = error
-        plant.step(u, dt_ns / NS)
+        plant.step(u, dt_ns / NANOSECONDS)
         stamp += dt_ns
         estimator.update(stamp, plant.measure(), u)
         g = estimator.last_step.g
@@ -603,7 +604,7 @@ def test_mimo_step_matrices_are_exact(kind, period_ms):
                                    atol=1e-9 * scale)
         error = error_block @ error
         assert np.linalg.norm(plant.x - estimator.estimate - error) <= EXACT_RTOL * scale
-    dt = dt_ns / NS
+    dt = dt_ns / NANOSECONDS
     eigenvalues = np.linalg.eigvals(estimator.last_step.error)
     if kind == 'kalman':
         delta = sampled(model.a, model.b, dt)[0]

@@ -13,9 +13,11 @@
 # limitations under the License.
 
 """
-The layers: the core imports nothing else of the package and no ROS; the schema no ROS.
+The layers: each room imports only the rooms below it, and only ``ros`` and ``nodes`` ROS.
 
-``observer_ros.core`` is a library; ``observer_ros.config`` (the parameter schema) sits on it.
+``observer_ros.core`` is a library (models, designs, estimators, the event engine);
+``observer_ros.config`` (the parameter schema) and ``observer_ros.app`` (health logic,
+reports, plots) sit on it without ROS; ``ros``, ``nodes``, ``bags`` and ``tools`` on top.
 The wire codec (``observer_ros.ros.cdr``) belongs to the ROS layer but imports no rclpy, so
 the bag tools (``observer_ros.bags``: storage and replay, no codec of their own) run without
 ROS.
@@ -23,12 +25,16 @@ ROS.
 
 import importlib
 import inspect
+import pathlib
 import pkgutil
+import re
 import subprocess
 import sys
 
+import observer_ros.app
 import observer_ros.bags
 import observer_ros.config
+from observer_ros.config.schema import ALL_NODES
 import observer_ros.core
 import observer_ros.ros.cdr
 
@@ -94,3 +100,38 @@ def test_the_bag_tools_import_no_ros_and_hold_no_wire_codec():
         assert not defined & codec, (name, sorted(defined & codec))
         for key in set(vars(module)) & codec:
             assert getattr(module, key) is getattr(observer_ros.ros.cdr, key), (name, key)
+
+
+def test_the_application_layer_imports_no_ros_and_nothing_above_it():
+    modules, loaded, ros = imported_by(observer_ros.app)
+    assert {'observer_ros.app.health', 'observer_ros.app.report'} <= set(modules)
+    assert ros == []
+    above = ('observer_ros.ros', 'observer_ros.nodes', 'observer_ros.bags', 'observer_ros.tools')
+    assert [name for name in loaded if name.startswith(above)] == []
+
+
+def test_the_schema_imports_nothing_of_the_application_layer_or_above():
+    _, loaded, _ = imported_by(observer_ros.config)
+    assert [name for name in loaded
+            if not name.startswith(('observer_ros.config', 'observer_ros.core'))] == []
+
+
+#: What only a node talks about: the diagnostics message, the node names (the schema's).
+NODE_WORDS = re.compile(r'DiagnosticStatus|diagnostic_msgs|\b(?:' + '|'.join(
+    name for name in ALL_NODES if name != 'observer') + r")\b|'observer'")
+
+
+def test_the_core_mentions_no_node_concepts():
+    sources = sorted(pathlib.Path(observer_ros.core.__file__).parent.rglob('*.py'))
+    assert len(sources) > 10
+    found = [f'{path.name}:{number}: {line.strip()}' for path in sources
+             for number, line in enumerate(path.read_text().splitlines(), 1)
+             if NODE_WORDS.search(line)]
+    assert found == []
+
+
+def test_the_core_arguments_know_no_nodes_and_no_run_time_parameters():
+    from dataclasses import fields
+
+    from observer_ros.core.arguments import Argument
+    assert {field.name for field in fields(Argument)}.isdisjoint({'nodes', 'dynamic'})

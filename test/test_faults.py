@@ -28,8 +28,8 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from conftest import CONFIG_DIR
+from observer_ros.ros.executors import make_executor
 from observer_ros.ros.messages import stamp_to_ns
-from observer_ros.ros.parameters import make_executor
 from ros_support import NodeProcess, ros_context, spin_until
 
 SEED003 = str(CONFIG_DIR / 'seed003_full_order.yaml')

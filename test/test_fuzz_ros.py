@@ -291,14 +291,14 @@ def value_for(spec, data):
     if other:
         return data.draw(st.sampled_from([Parameter.Type.NOT_SET, 'text', True, 7, [1, 2],
                                           2.5, ['a']]))
-    if spec.kind == DOUBLE:
+    if spec.value_type == DOUBLE:
         return data.draw(FLOATS)
-    if spec.kind == INTEGER:
+    if spec.value_type == INTEGER:
         return data.draw(st.sampled_from([0, 1, 42, -1, 2 ** 63 - 1, -2 ** 63]))
-    if spec.kind == STRING:
+    if spec.value_type == STRING:
         return data.draw(st.sampled_from(['auto', 'place', 'varga', 'acker', 'direct',
                                           'canonical', 'fast', '']))
-    if spec.kind == STRING_ARRAY:
+    if spec.value_type == STRING_ARRAY:
         return data.draw(st.lists(POLES, max_size=4))
     return data.draw(st.lists(FLOATS, max_size=5))
 

@@ -32,9 +32,9 @@ from sensor_msgs.msg import JointState
 import yaml
 
 from observer_ros.config import validate_parameters
-from observer_ros.core.control import IntegralAction, StateFeedbackLaw
 from observer_ros.core.design.integral import augmented_pair
 from observer_ros.core.errors import ConfigError
+from observer_ros.core.feedback_law import IntegralAction, StateFeedbackLaw
 from observer_ros.core.simulation import PlantSimulator
 from observer_ros.nodes.state_feedback import feedback_law, StateFeedbackNode
 from observer_ros.ros.messages import ns_to_stamp

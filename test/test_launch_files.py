@@ -28,7 +28,7 @@ import pytest
 
 from conftest import console_scripts, REPOSITORY
 from observer_ros.config import FEEDBACK, OBSERVER, PARAMETER_SPECS, PLANT, TOPIC_ROLES
-from observer_ros.ros.parameters import EXECUTORS
+from observer_ros.ros.executors import EXECUTORS
 
 LAUNCH_FILES = sorted((REPOSITORY / 'launch').glob('*.launch.py'))
 README = (REPOSITORY / 'README.md').read_text(encoding='utf-8')

@@ -24,7 +24,8 @@ import yaml
 
 from bag_support import robot_parameters, ROBOT_TOPICS, WALL_START_NS, write_robot_bag
 from conftest import console_script
-from observer_ros.bags.replay import replay_bag, write_replay
+from observer_ros.bags.replay import replay_bag
+from observer_ros.bags.replay_outputs import write_replay
 from observer_ros.bags.storage import BagError
 
 STORAGES = ['mcap', 'sqlite3']

@@ -29,7 +29,7 @@ from observer_ros.nodes.observer import ObserverNode
 from observer_ros.nodes.plant_simulator import PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.messages import VectorCodec
-from observer_ros.ros.parameters import publisher_qos
+from observer_ros.ros.qos import publisher_qos
 from ros_support import (
     DiagnosticsListener, executor_with, overrides, ros_context, spin_until)
 

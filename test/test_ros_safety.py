@@ -34,14 +34,14 @@ from sensor_msgs.msg import JointState
 from conftest import CONFIG_DIR
 from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.errors import ConfigError
+from observer_ros.core.units import NANOSECONDS
 from observer_ros.nodes.plant_simulator import PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
+from observer_ros.ros.executors import EXECUTORS, make_executor
 from observer_ros.ros.messages import ns_to_stamp, stamp_to_ns
-from observer_ros.ros.parameters import EXECUTORS, make_executor
 from ros_support import NodeProcess, overrides, ros_context
 
 SEED003 = CONFIG_DIR / 'seed003_full_order.yaml'
-NANOSECONDS = 1_000_000_000
 
 #: feedback.timeout of these tests.
 TIMEOUT = 0.2

@@ -22,9 +22,9 @@ from observer_ros.core.estimators import make_estimator
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.simulation import PlantSimulator
 from observer_ros.core.streaming import StreamEstimator
+from observer_ros.core.units import NANOSECONDS
 
 PERIOD_NS = 10_000_000
-SECOND_NS = 1_000_000_000
 
 
 def double_integrator():
@@ -42,7 +42,7 @@ def simulated(count, inputs):
     return np.array(ys)
 
 
-def stream(max_gap=SECOND_NS, stamped=True):
+def stream(max_gap=NANOSECONDS, stamped=True):
     _, design = double_integrator()
     return StreamEstimator(make_estimator(design), max_gap, stamped)
 
@@ -53,7 +53,7 @@ def reference_estimates(ys, inputs):
     out = []
     for k, y in enumerate(ys):
         u = inputs[k - 1] if k else np.zeros(1)
-        out.append(estimator.update(SECOND_NS + k * PERIOD_NS, y, u).copy())
+        out.append(estimator.update(NANOSECONDS + k * PERIOD_NS, y, u).copy())
     return np.array(out)
 
 
@@ -64,7 +64,7 @@ def test_input_of_the_interval_is_the_one_stamped_at_the_previous_sample():
     s = stream()
     got = []
     for k in range(50):
-        stamp = SECOND_NS + k * PERIOD_NS
+        stamp = NANOSECONDS + k * PERIOD_NS
         got += s.add_input(stamp, inputs[k])  # the plant publishes u_k with y_k
         got += s.add_measurement(stamp, ys[k])
     assert np.array_equal(np.array([g.estimate for g in got]), expected)
@@ -76,9 +76,9 @@ def test_a_future_input_never_leaks_into_the_past_and_late_inputs_release_waitin
     ys = simulated(20, inputs)
     expected = reference_estimates(ys, inputs)
     s = stream()
-    got = s.add_input(SECOND_NS, inputs[0]) + s.add_measurement(SECOND_NS, ys[0])
+    got = s.add_input(NANOSECONDS, inputs[0]) + s.add_measurement(NANOSECONDS, ys[0])
     for k in range(1, 20):
-        stamp = SECOND_NS + k * PERIOD_NS
+        stamp = NANOSECONDS + k * PERIOD_NS
         got += s.add_measurement(stamp, ys[k])   # y_k before u_k: its interval needs u_(k-1)
         got += s.add_input(stamp, inputs[k])
     assert np.array_equal(np.array([g.estimate for g in got]), expected)
@@ -86,7 +86,7 @@ def test_a_future_input_never_leaks_into_the_past_and_late_inputs_release_waitin
 
 def test_measurement_waits_for_its_input_then_flush_uses_the_latest_earlier_one():
     s = stream()
-    t = [SECOND_NS + k * PERIOD_NS for k in range(4)]
+    t = [NANOSECONDS + k * PERIOD_NS for k in range(4)]
     assert len(s.add_input(t[0], [1.0]) + s.add_measurement(t[0], [1.0])) == 1
     assert len(s.add_measurement(t[1], [1.0])) == 1   # its input (stamped t0) is here
     assert s.add_measurement(t[2], [1.0]) == []       # needs the input stamped t1
@@ -102,53 +102,53 @@ def test_measurement_waits_for_its_input_then_flush_uses_the_latest_earlier_one(
 
 def test_unstamped_inputs_never_make_measurements_wait():
     s = stream(stamped=False)
-    s.add_measurement(SECOND_NS, [0.0])
-    assert len(s.add_measurement(SECOND_NS + PERIOD_NS, [0.0])) == 1
+    s.add_measurement(NANOSECONDS, [0.0])
+    assert len(s.add_measurement(NANOSECONDS + PERIOD_NS, [0.0])) == 1
 
 
 @pytest.mark.parametrize('offset,counter', [(0, 'duplicate'), (-PERIOD_NS, 'out_of_order')])
 def test_duplicate_and_out_of_order_measurements_are_dropped(offset, counter):
     s = stream(stamped=False)
     for k in range(3):
-        s.add_measurement(SECOND_NS + k * PERIOD_NS, [1.0])
+        s.add_measurement(NANOSECONDS + k * PERIOD_NS, [1.0])
     before = s.estimator.estimate
-    assert s.add_measurement(SECOND_NS + 2 * PERIOD_NS + offset, [50.0]) == []
+    assert s.add_measurement(NANOSECONDS + 2 * PERIOD_NS + offset, [50.0]) == []
     assert s.counters[counter] == 1
     assert np.array_equal(s.estimator.estimate, before)
     assert s.events and s.events[-1][0] == counter
 
 
-@pytest.mark.parametrize('jump,counter', [(-5 * SECOND_NS, 'restart_backward_jump'),
-                                          (5 * SECOND_NS, 'restart_gap')])
+@pytest.mark.parametrize('jump,counter', [(-5 * NANOSECONDS, 'restart_backward_jump'),
+                                          (5 * NANOSECONDS, 'restart_gap')])
 def test_long_jumps_restart_from_the_current_estimate(jump, counter):
     s = stream(stamped=False)
     for k in range(5):
-        s.add_measurement(10 * SECOND_NS + k * PERIOD_NS, [1.0])
+        s.add_measurement(10 * NANOSECONDS + k * PERIOD_NS, [1.0])
     before = s.estimator.estimate
-    out = s.add_measurement(10 * SECOND_NS + 4 * PERIOD_NS + jump, [1.0])
+    out = s.add_measurement(10 * NANOSECONDS + 4 * PERIOD_NS + jump, [1.0])
     assert len(out) == 1 and s.counters[counter] == 1
     assert np.all(np.isfinite(out[0].estimate))
     np.testing.assert_array_equal(out[0].estimate, before)  # full order: restart keeps x_hat
-    nxt = s.add_measurement(10 * SECOND_NS + 5 * PERIOD_NS + jump, [1.0])
+    nxt = s.add_measurement(10 * NANOSECONDS + 5 * PERIOD_NS + jump, [1.0])
     assert len(nxt) == 1
 
 
 def test_reset_returns_to_the_initial_state():
     s = stream(stamped=False)
     for k in range(5):
-        s.add_measurement(SECOND_NS + k * PERIOD_NS, [2.0])
+        s.add_measurement(NANOSECONDS + k * PERIOD_NS, [2.0])
     s.reset()
-    out = s.add_measurement(2 * SECOND_NS, [2.0])
+    out = s.add_measurement(2 * NANOSECONDS, [2.0])
     # Unpinned: the first measurement initialises the measured state (C = [1, 0]).
     np.testing.assert_array_equal(out[0].estimate, [2.0, 0.0])
     np.testing.assert_array_equal(out[0].innovation, [2.0])
     _, design = double_integrator()
-    pinned = StreamEstimator(make_estimator(design, initial_state=[0.5, 1.0]), SECOND_NS,
+    pinned = StreamEstimator(make_estimator(design, initial_state=[0.5, 1.0]), NANOSECONDS,
                              False)
     for k in range(5):
-        pinned.add_measurement(SECOND_NS + k * PERIOD_NS, [2.0])
+        pinned.add_measurement(NANOSECONDS + k * PERIOD_NS, [2.0])
     pinned.reset()
-    out = pinned.add_measurement(2 * SECOND_NS, [2.0])
+    out = pinned.add_measurement(2 * NANOSECONDS, [2.0])
     np.testing.assert_array_equal(out[0].estimate, [0.5, 1.0])
     np.testing.assert_array_equal(out[0].innovation, [1.5])  # y - C x0, not zero
 
@@ -160,12 +160,12 @@ def test_batch_replay_equals_the_live_stream_bit_for_bit(seed, looping):
     # backward jump, inputs at other stamps than the measurements, NaN rows.
     rng = np.random.default_rng(seed)
     count = 300
-    stamps = SECOND_NS + np.cumsum(rng.integers(5, 15, size=count) * 1_000_000)
+    stamps = NANOSECONDS + np.cumsum(rng.integers(5, 15, size=count) * 1_000_000)
     stamps[100] = stamps[99]                        # duplicate
     stamps[150] = stamps[148] - 1_000_000           # out of order
-    stamps[200:] += 3 * SECOND_NS                   # gap
+    stamps[200:] += 3 * NANOSECONDS                   # gap
     if looping:
-        stamps[250:] -= 10 * SECOND_NS              # backward jump (a looping bag)
+        stamps[250:] -= 10 * NANOSECONDS              # backward jump (a looping bag)
     outputs = rng.standard_normal((count, 1))
     outputs[50] = np.nan
     # Arrival order is recording order: u_k, then y_k, then (every third sample) an extra

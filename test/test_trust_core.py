@@ -35,8 +35,8 @@ from observer_ros.core.estimators import make_estimator
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.simulation import PlantSimulator
 from observer_ros.core.streaming import StreamEstimator, ValueLimits
+from observer_ros.core.units import NANOSECONDS
 
-SECOND_NS = 1_000_000_000
 PERIOD_NS = 10_000_000
 SEED003 = load_parameter_file(str(CONFIG_DIR / 'seed003_full_order.yaml'))
 KALMAN = load_parameter_file(str(CONFIG_DIR / 'kalman_noisy.yaml'))
@@ -45,7 +45,7 @@ KALMAN = load_parameter_file(str(CONFIG_DIR / 'kalman_noisy.yaml'))
 def double_integrator_stream(**kwargs):
     model = StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
     design = design_full_order(model, poles=[-4, -5])
-    return StreamEstimator(make_estimator(design), SECOND_NS, **kwargs), model
+    return StreamEstimator(make_estimator(design), NANOSECONDS, **kwargs), model
 
 
 def samples(count, seed=0):
@@ -56,7 +56,7 @@ def samples(count, seed=0):
     rows = []
     for k in range(count):
         u = rng.uniform(-1, 1, size=1)
-        rows.append((SECOND_NS + k * PERIOD_NS, u, plant.measure().copy()))
+        rows.append((NANOSECONDS + k * PERIOD_NS, u, plant.measure().copy()))
         plant.step(u, PERIOD_NS / 1e9)
     return rows
 
@@ -76,7 +76,7 @@ def as_arrays(out):
 
 # --- parameters ---------------------------------------------------------------------------
 
-RANGED = [spec for spec in PARAMETERS if spec.kind in (DOUBLE, INTEGER)
+RANGED = [spec for spec in PARAMETERS if spec.value_type in (DOUBLE, INTEGER)
           and (spec.low is not None or spec.high is not None)]
 
 
@@ -85,11 +85,11 @@ def outside(spec):
     values = []
     if spec.low is not None:
         values += [spec.low if spec.low_open else spec.low - max(abs(spec.low) * 1e-3, 1),
-                   -1e300 if spec.kind == DOUBLE else -2 ** 63]
+                   -1e300 if spec.value_type == DOUBLE else -2 ** 63]
     if spec.high is not None:
         values += [spec.high + max(abs(spec.high) * 1e-3, 1),
-                   1e300 if spec.kind == DOUBLE else 2 ** 63 - 1]
-    values = [int(v) if spec.kind == INTEGER else v for v in values]
+                   1e300 if spec.value_type == DOUBLE else 2 ** 63 - 1]
+    values = [int(v) if spec.value_type == INTEGER else v for v in values]
     low = -math.inf if spec.low is None else spec.low
     high = math.inf if spec.high is None else spec.high
     return [v for v in values if v < low or v > high or (spec.low_open and v == low)]
@@ -97,7 +97,7 @@ def outside(spec):
 
 def test_every_number_parameter_has_a_range():
     for spec in PARAMETERS:
-        if spec.kind in (DOUBLE, INTEGER):
+        if spec.value_type in (DOUBLE, INTEGER):
             assert spec in RANGED, spec.name
 
 
@@ -272,7 +272,7 @@ def test_an_estimate_beyond_its_limit_is_never_returned():
 
 def test_a_measurement_far_ahead_of_the_clock_cannot_capture_the_timeline():
     rows = samples(60)
-    stream, _ = double_integrator_stream(clock_tolerance_ns=SECOND_NS // 2)
+    stream, _ = double_integrator_stream(clock_tolerance_ns=NANOSECONDS // 2)
     out = []
     for k, (stamp, u, y) in enumerate(rows):
         now = stamp + 1_000_000  # the receiver's clock, 1 ms after the sample
@@ -289,12 +289,12 @@ def test_a_measurement_far_ahead_of_the_clock_cannot_capture_the_timeline():
 
 def test_an_input_stamped_in_the_future_is_dropped_and_the_right_inputs_are_used():
     rows = samples(60)
-    stream, _ = double_integrator_stream(clock_tolerance_ns=SECOND_NS // 2)
+    stream, _ = double_integrator_stream(clock_tolerance_ns=NANOSECONDS // 2)
     out = []
     for k, (stamp, u, y) in enumerate(rows):
         now = stamp + 1_000_000
         if k == 5:  # before: every later step used an earlier input, late_input stayed 0
-            assert stream.add_input(stamp + 100 * SECOND_NS, [3.0], now) == []
+            assert stream.add_input(stamp + 100 * NANOSECONDS, [3.0], now) == []
         out += stream.add_measurement(stamp, y, now)  # y before its u: waits for it
         out += stream.add_input(stamp, u, now)
     assert stream.counters['future_stamp'] == 1 and stream.counters['late_input'] == 0
@@ -302,10 +302,10 @@ def test_an_input_stamped_in_the_future_is_dropped_and_the_right_inputs_are_used
 
 
 def test_the_clock_check_is_off_without_a_clock_or_a_tolerance():
-    stream, _ = double_integrator_stream(clock_tolerance_ns=SECOND_NS // 2)
-    assert len(stream.add_measurement(50 * SECOND_NS, [1.0], 0)) == 1  # sim time not yet set
+    stream, _ = double_integrator_stream(clock_tolerance_ns=NANOSECONDS // 2)
+    assert len(stream.add_measurement(50 * NANOSECONDS, [1.0], 0)) == 1  # sim time not yet set
     stream, _ = double_integrator_stream()
-    assert len(stream.add_measurement(50 * SECOND_NS, [1.0], SECOND_NS)) == 1
+    assert len(stream.add_measurement(50 * NANOSECONDS, [1.0], NANOSECONDS)) == 1
 
 
 @pytest.mark.parametrize('steady', [True, False])
@@ -315,13 +315,13 @@ def test_batch_replay_applies_the_same_value_and_clock_rules_as_the_stream(stead
     inputs = np.array([r[1] for r in rows])
     outputs = np.array([r[2] for r in rows])
     if not steady:
-        stamps[30:] += 2 * SECOND_NS  # a gap: the sample-by-sample path
+        stamps[30:] += 2 * NANOSECONDS  # a gap: the sample-by-sample path
     arrivals = stamps + 1_000_000
     outputs[7] = 1e12                          # out of range
     outputs[9] = math.nan                      # malformed
-    stamps[11] += 5 * SECOND_NS                # far ahead of its arrival
+    stamps[11] += 5 * NANOSECONDS                # far ahead of its arrival
     inputs[13] = 1e12
-    kwargs = {'clock_tolerance_ns': SECOND_NS // 2,
+    kwargs = {'clock_tolerance_ns': NANOSECONDS // 2,
               'limits': ValueLimits(measurement=1e9, input=1e9)}
     live, _ = double_integrator_stream(**kwargs)
     out = []
@@ -343,22 +343,22 @@ def test_batch_replay_applies_the_same_value_and_clock_rules_as_the_stream(stead
 
 def test_the_first_measurement_initialises_an_unpinned_estimate():
     stream, model = double_integrator_stream()
-    first = stream.add_measurement(SECOND_NS, [5015.0])[0]
+    first = stream.add_measurement(NANOSECONDS, [5015.0])[0]
     assert first.estimate.tolist() == [5015.0, 0.0]
     assert first.innovation.tolist() == [5015.0]   # y0 - C x0, was reported as 0
     system = validate_parameters(dict(SEED003, **{'observer.initial_state': [1.0, 2.0]}))
-    pinned = system.make_stream().add_measurement(SECOND_NS, [5015.0])[0]
+    pinned = system.make_stream().add_measurement(NANOSECONDS, [5015.0])[0]
     assert pinned.estimate.tolist() == [1.0, 2.0]
     assert pinned.innovation.tolist() == [5014.0]
 
 
 def test_only_the_first_waiting_measurement_stops_waiting_on_flush():
     stream, _ = double_integrator_stream()
-    stream.add_input(SECOND_NS, [0.0])
-    stream.add_measurement(SECOND_NS, [0.0], arrival_ns=1)
-    stream.add_measurement(SECOND_NS + PERIOD_NS, [0.0], arrival_ns=2)
-    assert stream.add_measurement(SECOND_NS + 2 * PERIOD_NS, [0.0], arrival_ns=3) == []
-    assert stream.add_measurement(SECOND_NS + 3 * PERIOD_NS, [0.0], arrival_ns=4) == []
+    stream.add_input(NANOSECONDS, [0.0])
+    stream.add_measurement(NANOSECONDS, [0.0], arrival_ns=1)
+    stream.add_measurement(NANOSECONDS + PERIOD_NS, [0.0], arrival_ns=2)
+    assert stream.add_measurement(NANOSECONDS + 2 * PERIOD_NS, [0.0], arrival_ns=3) == []
+    assert stream.add_measurement(NANOSECONDS + 3 * PERIOD_NS, [0.0], arrival_ns=4) == []
     first = stream.waiting()
     assert first[1] == 3
     assert len(stream.flush(first_only=True)) == 1
@@ -420,14 +420,14 @@ def test_the_steady_path_the_general_path_and_the_batch_replay_agree(messy, seed
     rng = np.random.default_rng(seed)
     rows = samples(300, seed)
     events = []
-    stamp = SECOND_NS
+    stamp = NANOSECONDS
     for k, (_, u, y) in enumerate(rows):
         if messy and rng.random() < 0.2:
             stamp += int(PERIOD_NS * rng.uniform(0.5, 1.5))  # jitter
         else:
             stamp += PERIOD_NS
         if messy and rng.random() < 0.02:
-            stamp += 2 * SECOND_NS  # a gap beyond observer.max_gap
+            stamp += 2 * NANOSECONDS  # a gap beyond observer.max_gap
         value = y.copy()
         if messy and rng.random() < 0.03:
             value = np.array([rng.choice([1e12, math.nan])])
@@ -435,7 +435,7 @@ def test_the_steady_path_the_general_path_and_the_batch_replay_agree(messy, seed
         events.append(('y', stamp, value, stamp + 1))
         if messy and rng.random() < 0.03:
             events.append(('y', stamp - PERIOD_NS // 2, y, stamp + 1))  # out of order
-    kwargs = {'clock_tolerance_ns': SECOND_NS // 2, 'limits': ValueLimits(1e9, 1e9, 1e9, 1e9)}
+    kwargs = {'clock_tolerance_ns': NANOSECONDS // 2, 'limits': ValueLimits(1e9, 1e9, 1e9, 1e9)}
     fast, _ = double_integrator_stream(**kwargs)
     slow, _ = double_integrator_stream(**kwargs)
     got, expected = node_like(fast, events), general(slow, events)

@@ -35,8 +35,8 @@ from conftest import CONFIG_DIR, REPOSITORY
 from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.nodes.observer import ObserverNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
+from observer_ros.ros.executors import EXECUTORS, make_executor
 from observer_ros.ros.messages import MalformedMessage
-from observer_ros.ros.parameters import EXECUTORS, make_executor
 from ros_support import executor_with, ros_context, spin_until
 from test_ros_nodes import Driver, joint_state, plant_samples, send, set_parameters
 from test_ros_nodes import observer_setup  # noqa: F401 (the fixture)

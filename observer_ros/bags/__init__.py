@@ -12,4 +12,4 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""rosbag2 bags without ROS: read and write vector topics, replay an observer over them."""
+"""rosbag2 bags without ROS: storage (MCAP and sqlite3) and replay of an observer over them."""

@@ -23,24 +23,23 @@ from your own tests::
     from observer_ros.bags.replay import replay_bag
     result = replay_bag('my_run', 'my_params.yaml')
     assert result.error_norms()[-1] < 1e-3  # against /x_true; or any check on the arrays
+
+Writing the results to a bag or a CSV file is :mod:`observer_ros.bags.replay_outputs`.
 """
 
 from dataclasses import dataclass, field
 import os
-from pathlib import Path
-import shutil
 from typing import Optional, Union
 
 import numpy as np
 
 from observer_ros.bags.storage import (
-    absolute_topic, BagError, read_topics, STORAGES, TopicData, TopicRequest, TopicToWrite,
-    write_bag)
+    absolute_topic, BagError, read_topics, TopicData, TopicRequest)
 from observer_ros.config import load_parameter_file, System, validate_parameters
 from observer_ros.config.schema import JOINT_STATE_FIELDS, topic_names
 from observer_ros.core.evaluation import align
+from observer_ros.core.units import NANOSECONDS
 
-NANOSECONDS = 1_000_000_000
 
 #: Inputs, evenly spread, whose stamps are compared with the measurements' time base.
 TIME_BASE_SAMPLES = 4096
@@ -316,139 +315,3 @@ def replay_bag(bag: Union[str, os.PathLike], parameters: Union[str, os.PathLike,
                         result.innovations, outputs, inputs, dict(stream.counters),
                         use_log_time, result.covariances, result.innovation_covariances,
                         result.nis)
-
-
-def missing_parents(path: Path) -> list:
-    """Return the ancestors of ``path`` that do not exist yet, nearest first."""
-    missing = []
-    for parent in path.absolute().parents:
-        if parent.exists():
-            break
-        missing.append(parent)
-    return missing
-
-
-def check_outputs(bag: Optional[str] = None, csv: Optional[str] = None,
-                  report: Optional[str] = None) -> None:
-    """
-    Check that the outputs of a replay can be written, before anything is.
-
-    The bag must not exist, the CSV must not be a directory, the report must be a
-    directory (or not exist), none may name another, and each must land in a directory
-    that can be created and written.
-
-    Raises
-    ------
-    observer_ros.bags.storage.BagError
-        The first output that cannot be written, naming its option.
-
-    """
-    named = [(option, Path(value)) for option, value in
-             (('--output', bag), ('--csv', csv), ('--report', report)) if value is not None]
-    for index, (option, path) in enumerate(named):
-        if option == '--output' and os.path.lexists(path):
-            raise BagError(f'--output: {path} exists already; choose a new output path')
-        if option == '--csv' and path.is_dir():
-            raise BagError(f'--csv: {path} is a directory; give a file name')
-        if option == '--report' and path.exists() and not path.is_dir():
-            raise BagError(f'--report: {path} is a file; give a directory')
-        for other, other_path in named[index + 1:]:
-            first, second = path.absolute(), other_path.absolute()
-            if first == second or first in second.parents or second in first.parents:
-                raise BagError(f'{option} {path} and {other} {other_path} overlap; give '
-                               f'separate paths')
-        missing = missing_parents(path)
-        existing = (missing[-1] if missing else path.absolute()).parent
-        if not existing.is_dir():
-            raise BagError(f'{option}: {existing} is not a directory')
-        if not os.access(existing, os.W_OK | os.X_OK):
-            raise BagError(f'{option}: cannot write in {existing}')
-
-
-def _write_csv(result: ReplayResult, target: Path) -> None:
-    """Write the CSV to a scratch file renamed into place, with a plain open()'s mode."""
-    system = result.system
-    header = ['stamp_ns', *system.model.state_names,
-              *(f'innovation_{name}' for name in system.model.output_names)]
-    directory = target.parent if str(target.parent) else Path('.')
-    while True:  # like tempfile.mkstemp, but created 0666 & ~umask, not 0600
-        scratch = directory / f'.{target.name}.{os.urandom(6).hex()}'
-        try:
-            handle = os.open(scratch, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-            break
-        except FileExistsError:
-            continue
-    try:
-        with os.fdopen(handle, 'w', encoding='utf-8') as stream:
-            stream.write(','.join(header) + '\n')
-            values = np.column_stack([result.estimates, result.innovations])
-            for stamp, row in zip(result.stamps_ns.tolist(), values.tolist()):
-                stream.write(f'{stamp},' + ','.join(map(repr, row)) + '\n')
-        os.replace(scratch, target)
-    finally:
-        if os.path.exists(scratch):
-            os.unlink(scratch)
-
-
-def write_replay(result: ReplayResult, bag: Optional[str] = None, csv: Optional[str] = None,
-                 storage: str = 'mcap', innovation: bool = True) -> None:
-    """
-    Write ``x_hat`` (and the innovation) to a new bag and/or a CSV file.
-
-    The bag's log times are the measurement stamps; the CSV has ``stamp_ns`` and one column
-    per state (then ``innovation_<output>``). Both paths are checked first
-    (:func:`check_outputs`), each is written to a temporary name renamed into place, and
-    when the second fails the first is removed: an error leaves nothing behind. Files get
-    the permissions a plain ``open()`` gives (the umask applies).
-
-    Raises
-    ------
-    observer_ros.bags.storage.BagError
-        An output that cannot be written, or an unknown storage.
-
-    """
-    check_outputs(bag, csv)
-    if storage not in STORAGES:
-        raise BagError(f'storage: expected one of {", ".join(STORAGES)}, got {storage!r}')
-    system = result.system
-    params = system.parameters
-    written, made = [], made_directories(bag, csv)
-    try:
-        if bag is not None:
-            topics = [TopicToWrite('/x_hat', params['topics.x_hat.type'],
-                                   params['topics.x_hat.field'], system.model.state_names,
-                                   result.stamps_ns, result.stamps_ns, result.estimates)]
-            if innovation:
-                topics.append(TopicToWrite(
-                    '/innovation', params['topics.innovation.type'],
-                    params['topics.innovation.field'], system.model.output_names,
-                    result.stamps_ns, result.stamps_ns, result.innovations))
-            write_bag(bag, topics, storage)
-            written.append(Path(bag))
-        if csv is not None:
-            Path(csv).absolute().parent.mkdir(parents=True, exist_ok=True)
-            _write_csv(result, Path(csv))
-    except BaseException:
-        remove_outputs(written, made)
-        raise
-
-
-def made_directories(*paths) -> list:
-    """Return the directories that writing ``paths`` creates, deepest first."""
-    missing = {parent for path in paths if path is not None
-               for parent in missing_parents(Path(path))}
-    return sorted(missing, key=lambda directory: len(directory.parts), reverse=True)
-
-
-def remove_outputs(written, directories=()) -> None:
-    """Remove written outputs (files or bag directories), then emptied ``directories``."""
-    for path in written:
-        if path.is_dir() and not path.is_symlink():
-            shutil.rmtree(path, ignore_errors=True)
-        elif os.path.lexists(path):
-            path.unlink()
-    for directory in directories:  # deepest first; only what is left empty
-        try:
-            directory.rmdir()
-        except OSError:
-            continue

@@ -200,15 +200,6 @@ def _mcap_files(reader) -> Optional[list]:
     return [path / PurePath(str(name)).name for name in names]
 
 
-def bag_topics(path) -> dict:
-    """Return ``{topic: (message type, message count)}`` of a bag, names as recorded."""
-    reader = _reader(path)
-    try:
-        return {name: (info.msgtype, info.msgcount) for name, info in reader.topics.items()}
-    finally:
-        reader.close()
-
-
 class Playback:
     """
     A bag's messages in log-time order, raw, for publishing them again.

@@ -30,14 +30,13 @@ from observer_ros.config.schema import (
     node_parameters, OBSERVER, PARAMETER_SPECS, parameter_table, PARAMETERS, ParameterSpec,
     PLANT, ROS_PARAMETERS, TOPIC_ROLES, TOPICS, VALUE_LIMIT)
 from observer_ros.config.system import (
-    complete_parameters, FeedbackSettings, NANOSECONDS, PlantSettings, System,
-    validate_parameters)
+    complete_parameters, FeedbackSettings, PlantSettings, System, validate_parameters)
 from observer_ros.core.arguments import (
     BOOL, DOUBLE, DOUBLE_ARRAY, INTEGER, STRING, STRING_ARRAY)
 
 __all__ = ['BOOL', 'DOUBLE', 'DOUBLE_ARRAY', 'INTEGER', 'STRING', 'STRING_ARRAY',
            'ALL_NODES', 'ARGUMENT_PARAMETERS', 'COVARIANCE_LIMIT', 'FEEDBACK',
-           'FeedbackSettings', 'JOINT_STATE_FIELDS', 'MESSAGE_TYPES', 'NANOSECONDS', 'OBSERVER',
+           'FeedbackSettings', 'JOINT_STATE_FIELDS', 'MESSAGE_TYPES', 'OBSERVER',
            'PARAMETERS', 'PARAMETER_SPECS', 'PLANT', 'ParameterSpec', 'PlantSettings',
            'ROS_PARAMETERS', 'System', 'TOPICS', 'TOPIC_ROLES', 'VALUE_LIMIT',
            'complete_parameters', 'flatten_parameters', 'load_parameter_file', 'named',

@@ -22,6 +22,7 @@ registered observer type, :mod:`observer_ros.core.observers`), the state feedbac
 plant simulator and the message settings of each topic (``topics.<topic>.*``).
 """
 
+from dataclasses import dataclass, fields
 import json
 
 from observer_ros.core.arguments import (
@@ -32,12 +33,32 @@ from observer_ros.core.observers import observer_arguments, observer_types
 from observer_ros.core.observers.chen import SEED_MAX
 from observer_ros.core.placement import METHODS
 
-#: A parameter of the schema (the same class as a type's argument, under its full name).
-ParameterSpec = Argument
-
 #: The nodes of the package, by the name each declares its parameters under.
 PLANT, OBSERVER, FEEDBACK = 'plant_simulator', 'observer', 'state_feedback'
 ALL_NODES = (PLANT, OBSERVER, FEEDBACK)
+
+
+@dataclass(frozen=True)
+class ParameterSpec(Argument):
+    """
+    A parameter of the schema: an argument under its parameter name, and its nodes.
+
+    What a :class:`~observer_ros.core.arguments.Argument` says, plus what only the nodes
+    know about the parameter.
+
+    Attributes
+    ----------
+    nodes : tuple of str
+        The nodes that declare the parameter (:data:`ALL_NODES` or some of them).
+    dynamic : bool
+        Whether a running node accepts a change (otherwise it is read-only, structural);
+        an observer type's argument is dynamic when it is tunable.
+
+    """
+
+    nodes: tuple = ALL_NODES
+    dynamic: bool = False
+
 
 #: Default of ``topics.<topic>.limit``: the largest magnitude a vector value may have.
 VALUE_LIMIT = 1e9
@@ -87,24 +108,29 @@ def topic_names(model, topic: str) -> tuple:
     return tuple(base)
 
 
-def _on(nodes: tuple, argument: Argument, prefix: str = '') -> Argument:
-    """Return ``argument`` as the parameter ``prefix + name`` declared by ``nodes``."""
-    return Argument(prefix + argument.name, argument.kind, argument.default,
-                    argument.description, argument.dynamic, nodes, argument.low,
-                    argument.high, argument.low_open, argument.unit, argument.entry_limit,
-                    argument.choices)
+def _on(nodes: tuple, argument: Argument, prefix: str = '',
+        dynamic: bool = None) -> ParameterSpec:
+    """
+    Return ``argument`` as the parameter ``prefix + name`` declared by ``nodes``.
+
+    ``dynamic`` defaults to whether the argument is tunable.
+    """
+    values = {field.name: getattr(argument, field.name) for field in fields(Argument)}
+    values['name'] = prefix + argument.name
+    return ParameterSpec(**values, nodes=nodes,
+                         dynamic=argument.tunable if dynamic is None else dynamic)
 
 
 def _seconds(name, default, description, low, high, nodes, dynamic=False):
-    return _on(nodes, _core_seconds(name, default, description, low, high, dynamic))
+    return _on(nodes, _core_seconds(name, default, description, low, high), dynamic=dynamic)
 
 
 def _values(name, description, nodes, dynamic=False, limit=ENTRY_LIMIT):
-    return _on(nodes, _array(name, description, dynamic, limit))
+    return _on(nodes, _array(name, description, limit=limit), dynamic=dynamic)
 
 
-def _spec(name, kind, default, description, nodes=ALL_NODES, **options):
-    return Argument(name, kind, default, description, nodes=nodes, **options)
+def _spec(name, value_type, default, description, nodes=ALL_NODES, **options):
+    return ParameterSpec(name, value_type, default, description, nodes=nodes, **options)
 
 
 MODEL = (
@@ -117,7 +143,7 @@ MODEL = (
     _spec('model.state_names', STRING_ARRAY, [], 'n state names (default x1..xn).'),
     _spec('model.input_names', STRING_ARRAY, [], 'm input names (default u1..um).'),
     _spec('model.output_names', STRING_ARRAY, [], 'p output names (default y1..yp).'),
-    _spec('model.disturbances', STRING_ARRAY, [], 'Disturbance kinds, one per disturbance: '
+    _spec('model.disturbances', STRING_ARRAY, [], 'Disturbance waveforms, one per disturbance: '
           'constant (1 state) | ramp (2 states: value, rate) | sinusoid (2 states: value, '
           'rate); the observers estimate the plant augmented with their states (README, '
           'Disturbances). Empty: none.'),
@@ -347,7 +373,7 @@ def parameter_table() -> str:
         limits = spec.range_text() or (f'abs <= {number_text(spec.entry_limit)}'
                                        if spec.entry_limit else '')
         nodes = 'all' if spec.nodes == ALL_NODES else ', '.join(short[n] for n in spec.nodes)
-        rows.append(f'| `{spec.name}` | {spec.kind} | `{default}` | {limits} | '
+        rows.append(f'| `{spec.name}` | {spec.value_type} | `{default}` | {limits} | '
                     f'{"yes" if spec.dynamic else "no"} | {nodes} | {spec.description} |')
     return '\n'.join(rows) + '\n'
 

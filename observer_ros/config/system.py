@@ -31,21 +31,23 @@ from observer_ros.config.names import named
 from observer_ros.config.schema import PARAMETER_SPECS, PARAMETERS, ROS_PARAMETERS
 from observer_ros.core.arguments import number_text
 from observer_ros.core.design.common import ObserverDesign
-from observer_ros.core.design.controller import (
-    closed_loop_poles, controller_transfer_function, ControllerTransferFunction)
 from observer_ros.core.design.feedback import design_feedback, FeedbackDesign
 from observer_ros.core.design.integral import design_integral, IntegralDesign
 from observer_ros.core.disturbances import augment, augmented_noise, DisturbanceModel
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.estimators import StateEstimator
-from observer_ros.core.model import (
-    covariance_from_flat, matrix_from_flat, StateSpaceModel, vector_from_flat)
+from observer_ros.core.flat_matrices import (
+    covariance_from_flat, matrix_from_flat, vector_from_flat)
+from observer_ros.core.loop_analysis.closed_loop import closed_loop_poles
+from observer_ros.core.loop_analysis.observer_controller import controller_transfer_function
+from observer_ros.core.loop_analysis.transfer_function import ControllerTransferFunction
+from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.observers import observer_type, ObserverType
 from observer_ros.core.observers.common import parsed_poles
 from observer_ros.core.simulation import input_limits_from_flat
 from observer_ros.core.streaming import StreamEstimator, ValueLimits
+from observer_ros.core.units import NANOSECONDS
 
-NANOSECONDS = 1_000_000_000
 
 #: The plant rate of a continuous model when ``plant.rate_hz`` is 0 (follow the model).
 DEFAULT_RATE_HZ = 100.0
@@ -74,7 +76,7 @@ class PlantSettings:
     @property
     def period_ns(self) -> int:
         """Sample period in integer nanoseconds."""
-        return int(round(1e9 / self.rate_hz))
+        return int(round(NANOSECONDS / self.rate_hz))
 
 
 @dataclass(frozen=True)

@@ -50,11 +50,12 @@ Designs
     :class:`KalmanDesign`, :class:`FeedbackDesign`, :class:`ObserverRealization`);
     :func:`full_order_gain`, :func:`full_order_realization`,
     :func:`measured_first_transform`, :func:`reference_gain`.
-Observer-controller
+Observer-controller (the analysis in :mod:`observer_ros.core.loop_analysis`)
     :func:`controller_transfer_function`, :func:`diophantine_controller`,
     :func:`solve_diophantine`, :func:`controller_state_space`, :func:`closed_loop_matrix`,
     :func:`closed_loop_poles`, :class:`ControllerTransferFunction`,
-    :class:`UnstableControllerWarning`, :class:`StateFeedbackLaw`.
+    :class:`UnstableControllerWarning`, :class:`StateFeedbackLaw` (the run-time law,
+    :mod:`observer_ros.core.feedback_law`).
 Integral action
     :func:`design_integral`, :class:`IntegralDesign`, :func:`augmented_pair`,
     :class:`IntegralAction` (the servo law's integrator, with anti-windup).
@@ -133,11 +134,13 @@ _EXPORTS = {
         'KalmanDesign', 'design_kalman', 'design_sampled_kalman'),
     'observer_ros.core.design.feedback': ('FeedbackDesign', 'design_feedback', 'reference_gain'),
     'observer_ros.core.design.integral': ('IntegralDesign', 'design_integral', 'augmented_pair'),
-    'observer_ros.core.design.controller': (
-        'ControllerTransferFunction', 'UnstableControllerWarning',
-        'controller_transfer_function', 'diophantine_controller', 'solve_diophantine',
-        'controller_state_space', 'closed_loop_matrix', 'closed_loop_poles'),
-    'observer_ros.core.control': ('StateFeedbackLaw', 'IntegralAction'),
+    'observer_ros.core.loop_analysis.transfer_function': ('ControllerTransferFunction',),
+    'observer_ros.core.loop_analysis.observer_controller': (
+        'UnstableControllerWarning', 'controller_transfer_function', 'controller_state_space'),
+    'observer_ros.core.loop_analysis.diophantine': (
+        'diophantine_controller', 'solve_diophantine'),
+    'observer_ros.core.loop_analysis.closed_loop': ('closed_loop_matrix', 'closed_loop_poles'),
+    'observer_ros.core.feedback_law': ('StateFeedbackLaw', 'IntegralAction'),
     'observer_ros.core.estimators': ('Estimator', 'Prediction', 'StateEstimator',
                                      'TimeVaryingKalman', 'make_estimator'),
     'observer_ros.core.streaming': ('StreamEstimator', 'ValueLimits'),

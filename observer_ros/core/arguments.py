@@ -15,11 +15,12 @@
 """
 Typed, ranged arguments: what an observer type reads and what a parameter schema holds.
 
-An :class:`Argument` names a value, its kind (``double``, ``double_array``, ``string``,
-``string_array``, ``integer``, ``bool``), default, range and description, and checks a given
-value with :meth:`Argument.coerce`. Observer types declare theirs by their own names
-(``poles``, ``gain``); the parameter schema (:mod:`observer_ros.config`) holds the same
-objects under the parameter names (``observer.poles``).
+An :class:`Argument` names a value, its value type (``double``, ``double_array``,
+``string``, ``string_array``, ``integer``, ``bool``), default, range and description, and
+checks a given value with :meth:`Argument.coerce`. Observer types declare theirs by their
+own names (``poles``, ``gain``); the parameter schema (:mod:`observer_ros.config`) offers
+each under its parameter name (``observer.poles``), with what only a node knows: which nodes
+declare it and whether it may change at run time.
 """
 
 from dataclasses import dataclass
@@ -63,21 +64,21 @@ def number_text(value) -> str:
 @dataclass(frozen=True)
 class Argument:
     """
-    A named value with a kind, a default, a range and a description.
+    A named value with a value type, a default, a range and a description.
 
     Attributes
     ----------
     name : str
         The argument's name (or, in a parameter schema, the parameter's).
-    kind : str
+    value_type : str
         One of ``double``, ``double_array``, ``string``, ``string_array``, ``integer``,
         ``bool``.
     default : object
     description : str
-    dynamic : bool
-        Whether it may change while an estimator runs.
-    nodes : tuple of str
-        Schema only: the nodes that declare the parameter.
+    tunable : bool
+        Whether a running estimator takes a new value in place, its state kept (gains,
+        poles, noises); otherwise the value shapes the estimator (its form), which a new
+        value rebuilds.
     low, high : float or None
         Inclusive bounds of a number.
     low_open : bool
@@ -103,11 +104,10 @@ class Argument:
     """
 
     name: str
-    kind: str
+    value_type: str
     default: Any
     description: str
-    dynamic: bool = False
-    nodes: tuple = ()
+    tunable: bool = False
     low: Optional[float] = None
     high: Optional[float] = None
     low_open: bool = False
@@ -116,7 +116,7 @@ class Argument:
     choices: tuple = ()
 
     def range_text(self) -> str:
-        """Return the accepted range in words (empty when any value of the kind is)."""
+        """Return the accepted range in words (empty when any value of the type is)."""
         if self.low is None and self.high is None:
             return ''
         low = '-inf' if self.low is None else number_text(self.low)
@@ -133,7 +133,7 @@ class Argument:
 
     def coerce(self, value: Any) -> Any:
         """
-        Return ``value`` checked and converted to the kind (None gives the default).
+        Return ``value`` checked and converted to the value type (None gives the default).
 
         Integers count as doubles; numbers in a string list become strings (pole lists
         written as numbers).
@@ -141,28 +141,28 @@ class Argument:
         Raises
         ------
         ConfigError
-            Naming the argument: wrong kind, not finite, outside the range or the choices.
+            Naming the argument: wrong type, not finite, outside the range or the choices.
 
         """
-        name, kind = self.name, self.kind
+        name, value_type = self.name, self.value_type
         if value is None:
             return self.default
-        if kind == DOUBLE:
+        if value_type == DOUBLE:
             if isinstance(value, bool) or not isinstance(value, _NUMBERS):
                 raise ConfigError(name, f'expected a number, got {value!r}')
             value = float(value)
             if not math.isfinite(value):
                 raise ConfigError(name, f'expected a finite number, got {value}')
             return self._ranged(value)
-        if kind == INTEGER:
+        if value_type == INTEGER:
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
                 raise ConfigError(name, f'expected an integer, got {value!r}')
             return self._ranged(int(value))
-        if kind == BOOL:
+        if value_type == BOOL:
             if not isinstance(value, bool):
                 raise ConfigError(name, f'expected true or false, got {value!r}')
             return value
-        if kind == STRING:
+        if value_type == STRING:
             if not isinstance(value, str):
                 raise ConfigError(name, f'expected a string, got {value!r}')
             if self.choices and value not in self.choices:
@@ -172,7 +172,7 @@ class Argument:
         if isinstance(value, (str, bytes)) or not hasattr(value, '__iter__'):
             raise ConfigError(name, f'expected a list, got {value!r}')
         items = list(value)
-        if kind == DOUBLE_ARRAY:
+        if value_type == DOUBLE_ARRAY:
             for index, item in enumerate(items):
                 if isinstance(item, bool) or not isinstance(item, _NUMBERS):
                     raise ConfigError(name, f'expected numbers, entry {index} is {item!r}')
@@ -190,16 +190,16 @@ class Argument:
 
 
 def seconds(name: str, default: float, description: str, low: float, high: float,
-            dynamic: bool = False, low_open: bool = False) -> Argument:
+            tunable: bool = False, low_open: bool = False) -> Argument:
     """Return a ``double`` argument in seconds, with its range."""
-    return Argument(name, DOUBLE, default, description, dynamic, low=low, high=high,
+    return Argument(name, DOUBLE, default, description, tunable, low=low, high=high,
                     low_open=low_open, unit='seconds')
 
 
-def array(name: str, description: str, dynamic: bool = False,
+def array(name: str, description: str, tunable: bool = False,
           limit: float = ENTRY_LIMIT) -> Argument:
     """Return a ``double_array`` argument (empty by default) whose entries are bounded."""
-    return Argument(name, DOUBLE_ARRAY, [], description, dynamic, entry_limit=limit)
+    return Argument(name, DOUBLE_ARRAY, [], description, tunable, entry_limit=limit)
 
 
 def matrix_text(text: str) -> str:

@@ -18,7 +18,7 @@ Disturbance models: the plant augmented with constant, ramp and sinusoidal distu
 Each disturbance ``d_j`` is the first state of a small autonomous generator:
 
 ========== ====== ==================================== =====================
-kind       states continuous generator                 state names
+waveform   states continuous generator                 state names
 ========== ====== ==================================== =====================
 constant   1      ``d' = 0``                           ``name``
 ramp       2      ``d' = d_rate, d_rate' = 0``         ``name, name_rate``
@@ -50,14 +50,15 @@ from scipy.linalg import expm
 
 from observer_ros.core.analysis import format_modes, pbh_lost_modes
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.model import matrix_from_flat, StateSpaceModel
+from observer_ros.core.flat_matrices import matrix_from_flat
+from observer_ros.core.model import StateSpaceModel
 
-#: Disturbance kinds and their number of states.
-KIND_STATES = {'constant': 1, 'ramp': 2, 'sinusoid': 2}
-KINDS = tuple(KIND_STATES)
+#: Disturbance waveforms and their number of states.
+WAVEFORM_STATES = {'constant': 1, 'ramp': 2, 'sinusoid': 2}
+WAVEFORMS = tuple(WAVEFORM_STATES)
 
 #: Where a disturbance enters: ``input:<name>``, ``output:<name>`` or ``matrix``.
-ENTRY_KINDS = ('input', 'output', 'matrix')
+ENTRY_SIDES = ('input', 'output', 'matrix')
 
 #: Relative distance under which a disturbance mode counts as equal to a plant pole.
 MODE_TOLERANCE = 1e-6
@@ -66,12 +67,12 @@ MODE_TOLERANCE = 1e-6
 @dataclass(frozen=True)
 class Disturbance:
     """
-    One disturbance: its kind, where it enters and its states in the augmented model.
+    One disturbance: its waveform, where it enters and its states in the augmented model.
 
     Attributes
     ----------
     name : str
-    kind : {'constant', 'ramp', 'sinusoid'}
+    waveform : {'constant', 'ramp', 'sinusoid'}
     entry : {'input', 'output', 'matrix'}
     index : int
         The input or output index (``entry`` input or output), or the column of the
@@ -94,7 +95,7 @@ class Disturbance:
     """
 
     name: str
-    kind: str
+    waveform: str
     entry: str
     index: int
     frequency: float
@@ -113,8 +114,10 @@ class Disturbance:
 
     def describe(self) -> str:
         """Return e.g. ``constant 'load'`` or ``sinusoid (5 rad/s) 'hum'``."""
-        kind = f'sinusoid ({self.frequency:g} rad/s)' if self.kind == 'sinusoid' else self.kind
-        return f'{kind} {self.name!r}'
+        waveform = self.waveform
+        if waveform == 'sinusoid':
+            waveform = f'sinusoid ({self.frequency:g} rad/s)'
+        return f'{waveform} {self.name!r}'
 
 
 @dataclass(frozen=True)
@@ -171,44 +174,44 @@ class DisturbanceModel:
         return tuple(d for d in self.disturbances if d.entry == 'input')
 
 
-def _generator(kind: str, frequency: float, dt: float) -> np.ndarray:
-    if kind == 'constant':
+def _generator(waveform: str, frequency: float, dt: float) -> np.ndarray:
+    if waveform == 'constant':
         continuous = np.zeros((1, 1))
-    elif kind == 'ramp':
+    elif waveform == 'ramp':
         continuous = np.array([[0.0, 1.0], [0.0, 0.0]])
     else:
         continuous = np.array([[0.0, 1.0], [-frequency ** 2, 0.0]])
     return expm(continuous * dt) if dt > 0.0 else continuous
 
 
-def _continuous_modes(kind: str, frequency: float) -> np.ndarray:
-    if kind == 'sinusoid':
+def _continuous_modes(waveform: str, frequency: float) -> np.ndarray:
+    if waveform == 'sinusoid':
         return np.array([1j * frequency, -1j * frequency])
-    return np.zeros(KIND_STATES[kind], dtype=complex)
+    return np.zeros(WAVEFORM_STATES[waveform], dtype=complex)
 
 
 def _entry(text: str, position: int, model: StateSpaceModel) -> tuple:
     """Return ``(entry, index)`` of one ``model.disturbance_entries`` entry."""
-    kind, _, target = str(text).partition(':')
-    kind, target = kind.strip(), target.strip()
-    if kind not in ENTRY_KINDS:
+    side, _, target = str(text).partition(':')
+    side, target = side.strip(), target.strip()
+    if side not in ENTRY_SIDES:
         raise ConfigError('disturbance_entries', f'entry {position}: expected input:<input '
                           f'name>, output:<output name> or matrix, got {text!r}')
-    if kind == 'matrix':
-        return kind, -1
-    names = model.input_names if kind == 'input' else model.output_names
+    if side == 'matrix':
+        return side, -1
+    names = model.input_names if side == 'input' else model.output_names
     if not target:
         if len(names) != 1:
             raise ConfigError('disturbance_entries', f'entry {position}: the model has '
-                              f'{len(names)} {kind}s; name one ({kind}:{names[0]})')
-        return kind, 0
+                              f'{len(names)} {side}s; name one ({side}:{names[0]})')
+        return side, 0
     if target in names:
-        return kind, names.index(target)
-    raise ConfigError('disturbance_entries', f'entry {position}: no {kind} named '
-                      f'{target!r} (the {kind}s are {list(names)})')
+        return side, names.index(target)
+    raise ConfigError('disturbance_entries', f'entry {position}: no {side} named '
+                      f'{target!r} (the {side}s are {list(names)})')
 
 
-def augment(model: StateSpaceModel, kinds: Sequence[str], entries: Sequence[str] = (),
+def augment(model: StateSpaceModel, waveforms: Sequence[str], entries: Sequence[str] = (),
             matrix: Sequence[float] = (), frequencies: Sequence[float] = (),
             names: Sequence[str] = ()) -> DisturbanceModel:
     """
@@ -218,7 +221,7 @@ def augment(model: StateSpaceModel, kinds: Sequence[str], entries: Sequence[str]
     ----------
     model : StateSpaceModel
         The plant, continuous or discrete.
-    kinds : sequence of str
+    waveforms : sequence of str
         One of ``constant``, ``ramp``, ``sinusoid`` per disturbance.
     entries : sequence of str
         Per disturbance: ``input:<input name>``, ``output:<output name>`` (the name may be
@@ -262,20 +265,20 @@ def augment(model: StateSpaceModel, kinds: Sequence[str], entries: Sequence[str]
     observer_ros.core.errors.ConfigError: disturbances: the constant 'bias' ... at s = 0 ...
 
     """
-    kinds = [str(kind) for kind in kinds]
-    count = len(kinds)
+    waveforms = [str(waveform) for waveform in waveforms]
+    count = len(waveforms)
     if count == 0:
         raise ConfigError('disturbances', 'expected at least one of constant, ramp, sinusoid')
-    for position, kind in enumerate(kinds):
-        if kind not in KIND_STATES:
+    for position, waveform in enumerate(waveforms):
+        if waveform not in WAVEFORM_STATES:
             raise ConfigError('disturbances', f'entry {position}: expected constant, ramp or '
-                              f'sinusoid, got {kind!r}')
+                              f'sinusoid, got {waveform!r}')
     entries = list(entries) or ['input'] * count
     if len(entries) != count:
         raise ConfigError('disturbance_entries', f'expected {count} entries (one per '
                           f'disturbance in disturbances), got {len(entries)}')
     placed = [_entry(text, position, model) for position, text in enumerate(entries)]
-    n_matrix = sum(1 for kind, _ in placed if kind == 'matrix')
+    n_matrix = sum(1 for entry, _ in placed if entry == 'matrix')
     n = model.n_states
     if n_matrix:
         e_matrix = matrix_from_flat('disturbance_matrix', matrix, n, n_matrix)
@@ -284,7 +287,7 @@ def augment(model: StateSpaceModel, kinds: Sequence[str], entries: Sequence[str]
                           'leave disturbance_matrix empty')
     else:
         e_matrix = np.zeros((n, 0))
-    n_sinusoids = kinds.count('sinusoid')
+    n_sinusoids = waveforms.count('sinusoid')
     frequencies = [float(f) for f in frequencies]
     if len(frequencies) != n_sinusoids:
         raise ConfigError('disturbance_frequencies', f'expected {n_sinusoids} frequencies in '
@@ -298,14 +301,14 @@ def augment(model: StateSpaceModel, kinds: Sequence[str], entries: Sequence[str]
         raise ConfigError('disturbance_names', f'expected {count} names (one per disturbance '
                           f'in disturbances), got {len(names)}')
     disturbances, column, sinusoid, first = [], 0, 0, n
-    for kind, (entry, index), name in zip(kinds, placed, names):
+    for waveform, (entry, index), name in zip(waveforms, placed, names):
         frequency = 0.0
-        if kind == 'sinusoid':
+        if waveform == 'sinusoid':
             frequency, sinusoid = frequencies[sinusoid], sinusoid + 1
         if entry == 'matrix':
             index, column = column, column + 1
-        state_names = (name,) if KIND_STATES[kind] == 1 else (name, f'{name}_rate')
-        disturbances.append(Disturbance(name, kind, entry, index, frequency, first,
+        state_names = (name,) if WAVEFORM_STATES[waveform] == 1 else (name, f'{name}_rate')
+        disturbances.append(Disturbance(name, waveform, entry, index, frequency, first,
                                         state_names))
         first += len(state_names)
     all_names = list(model.state_names) + [s for d in disturbances for s in d.state_names]
@@ -329,7 +332,7 @@ def _augmented_matrices(model: StateSpaceModel, disturbances: Sequence[Disturban
     for disturbance in disturbances:
         j = disturbance.first_state
         block = slice(j, j + disturbance.n_states)
-        a[block, block] = _generator(disturbance.kind, disturbance.frequency, model.dt)
+        a[block, block] = _generator(disturbance.waveform, disturbance.frequency, model.dt)
         if disturbance.entry == 'input':
             a[:n, j] = model.b[:, disturbance.index]
             c[:, j] = model.d[:, disturbance.index]
@@ -355,7 +358,7 @@ def _plant_modes(model: StateSpaceModel) -> np.ndarray:
 
 
 def _disturbance_modes(model: StateSpaceModel, disturbance: Disturbance) -> np.ndarray:
-    modes = _continuous_modes(disturbance.kind, disturbance.frequency)
+    modes = _continuous_modes(disturbance.waveform, disturbance.frequency)
     return np.exp(modes * model.dt) if model.is_discrete else modes
 
 
@@ -368,7 +371,7 @@ def _check_resonance(model: StateSpaceModel, disturbances) -> None:
     plant_poles = _plant_modes(model)
     variable = 'z' if model.is_discrete else 's'
     for disturbance in disturbances:
-        if disturbance.kind != 'sinusoid':
+        if disturbance.waveform != 'sinusoid':
             continue
         modes = _disturbance_modes(model, disturbance)
         if _close(modes[0], plant_poles):
@@ -457,5 +460,5 @@ def augmented_noise(plant_noise: np.ndarray, disturbance_noise: Sequence[float],
     return q
 
 
-__all__ = ['Disturbance', 'DisturbanceModel', 'ENTRY_KINDS', 'KINDS', 'KIND_STATES',
+__all__ = ['Disturbance', 'DisturbanceModel', 'ENTRY_SIDES', 'WAVEFORMS', 'WAVEFORM_STATES',
            'augment', 'augmented_noise']

@@ -16,8 +16,8 @@
 State-space models built from flat, row-major lists, from 2-D arrays or from python-control.
 
 Errors name the matrices ``A``, ``B``, ``C``, ``D`` and the other fields (``dt``,
-``state_names``...) as :mod:`observer_ros.core.errors` describes. The ``*_from_flat``
-helpers take the name to report as their first argument.
+``state_names``...) as :mod:`observer_ros.core.errors` describes; the flat lists are read
+by :mod:`observer_ros.core.flat_matrices`.
 """
 
 from dataclasses import dataclass
@@ -28,201 +28,11 @@ from typing import Any, Optional, Sequence
 import numpy as np
 
 from observer_ros.core.errors import ConfigError
-
-ArrayLike = Sequence[float] | np.ndarray
+from observer_ros.core.flat_matrices import (
+    ArrayLike, as_finite_vector, matrix_from_flat, square_from_flat)
 
 #: Signal names python-control makes up when none are given (``x[0]``, ``u[1]``...).
 _CONTROL_DEFAULT_NAME = re.compile(r'^[xuy]\[\d+\]$')
-
-
-def _as_finite_vector(parameter: str, values: ArrayLike) -> np.ndarray:
-    """Return ``values`` as a 1-D float array; refuse strings and non-finite entries."""
-    if isinstance(values, (str, bytes)):
-        raise ConfigError(parameter, f'expected a list of numbers, got the string {values!r}')
-    try:
-        vector = np.asarray(values, dtype=float)
-    except (TypeError, ValueError) as e:
-        raise ConfigError(parameter, f'expected a list of numbers, got {values!r}') from e
-    if vector.ndim == 0:
-        vector = vector.reshape(1)
-    if vector.ndim != 1:
-        vector = vector.reshape(-1)
-    bad = np.flatnonzero(~np.isfinite(vector))
-    if bad.size:
-        raise ConfigError(
-            parameter,
-            f'expected finite numbers, entry {int(bad[0])} is {vector[bad[0]]}')
-    return vector
-
-
-def matrix_from_flat(parameter: str, values: ArrayLike, rows: int, cols: int) -> np.ndarray:
-    """
-    Build a ``rows x cols`` matrix from a flat row-major list, checking its length.
-
-    Parameters
-    ----------
-    parameter : str
-        Name used in error messages (the caller's argument, such as ``'gain'``).
-    values : sequence of float, shape (rows * cols,)
-        The entries, row after row.
-    rows, cols : int
-        Expected shape.
-
-    Returns
-    -------
-    numpy.ndarray, shape (rows, cols)
-
-    Raises
-    ------
-    ConfigError
-        Naming ``parameter``, if the length differs from ``rows * cols`` or an entry is
-        not a finite number.
-
-    Examples
-    --------
-    >>> from observer_ros.core.model import matrix_from_flat
-    >>> print(matrix_from_flat('gain', [1, 2, 3, 4, 5, 6], 2, 3))
-    [[1. 2. 3.]
-     [4. 5. 6.]]
-    >>> matrix_from_flat('gain', [1, 2, 3], 2, 1)
-    Traceback (most recent call last):
-    ...
-    observer_ros.core.errors.ConfigError: gain: expected 2x1 (2 values, row-major), got 3
-
-    """
-    vector = _as_finite_vector(parameter, values)
-    if vector.size != rows * cols:
-        raise ConfigError(
-            parameter,
-            f'expected {rows}x{cols} ({rows * cols} values, row-major), got {vector.size}')
-    return vector.reshape(rows, cols)
-
-
-def vector_from_flat(parameter: str, values: ArrayLike, size: int) -> np.ndarray:
-    """
-    Return a finite vector of exactly ``size`` entries.
-
-    Parameters
-    ----------
-    parameter : str
-        Name used in error messages.
-    values : sequence of float, shape (size,)
-    size : int
-
-    Returns
-    -------
-    numpy.ndarray, shape (size,)
-
-    Raises
-    ------
-    ConfigError
-        Naming ``parameter``, for a wrong length or a non-finite entry.
-
-    Examples
-    --------
-    >>> from observer_ros.core.model import vector_from_flat
-    >>> vector_from_flat('initial_state', [1, 0], 2).tolist()
-    [1.0, 0.0]
-    >>> vector_from_flat('initial_state', [1], 2)
-    Traceback (most recent call last):
-    ...
-    observer_ros.core.errors.ConfigError: initial_state: expected 2 values, got 1
-
-    """
-    vector = _as_finite_vector(parameter, values)
-    if vector.size != size:
-        raise ConfigError(parameter, f'expected {size} values, got {vector.size}')
-    return vector
-
-
-def square_from_flat(parameter: str, values: ArrayLike) -> np.ndarray:
-    """
-    Infer ``n`` from ``n * n`` row-major entries and return the ``n x n`` matrix.
-
-    Parameters
-    ----------
-    parameter : str
-        Name used in error messages.
-    values : sequence of float, shape (n * n,)
-
-    Returns
-    -------
-    numpy.ndarray, shape (n, n)
-
-    Raises
-    ------
-    ConfigError
-        Naming ``parameter``, when the length is not a positive square or an entry is not
-        finite.
-
-    Examples
-    --------
-    >>> from observer_ros.core.model import square_from_flat
-    >>> square_from_flat('A', [0, 1, 0, 0]).shape
-    (2, 2)
-
-    """
-    vector = _as_finite_vector(parameter, values)
-    n = math.isqrt(vector.size)
-    if vector.size == 0 or n * n != vector.size:
-        raise ConfigError(
-            parameter,
-            f'expected a square matrix as n*n values (row-major), got {vector.size} values')
-    return vector.reshape(n, n)
-
-
-def covariance_from_flat(parameter: str, values: ArrayLike, size: int) -> np.ndarray:
-    """
-    Build a symmetric positive semi-definite ``size x size`` covariance.
-
-    Parameters
-    ----------
-    parameter : str
-        Name used in error messages (``'process_noise'``, ``'measurement_noise'``...).
-    values : sequence of float, shape (size,) or (size * size,)
-        Either the ``size`` diagonal entries or all ``size * size`` entries (row-major).
-    size : int
-
-    Returns
-    -------
-    numpy.ndarray, shape (size, size)
-
-    Raises
-    ------
-    ConfigError
-        Naming ``parameter``: wrong length, non-finite entry, asymmetric or indefinite.
-
-    Examples
-    --------
-    >>> from observer_ros.core.model import covariance_from_flat
-    >>> print(covariance_from_flat('process_noise', [1, 2], 2))
-    [[1. 0.]
-     [0. 2.]]
-    >>> covariance_from_flat('process_noise', [1, 2, 0, 1], 2)
-    Traceback (most recent call last):
-    ...
-    observer_ros.core.errors.ConfigError: process_noise: expected a symmetric matrix
-
-    """
-    vector = _as_finite_vector(parameter, values)
-    if vector.size == size:
-        matrix = np.diag(vector)
-    elif vector.size == size * size:
-        matrix = vector.reshape(size, size)
-    else:
-        raise ConfigError(
-            parameter,
-            f'expected {size} diagonal values or a {size}x{size} matrix '
-            f'({size * size} values, row-major), got {vector.size}')
-    if not np.allclose(matrix, matrix.T, rtol=1e-12, atol=1e-12 * max(1.0, np.abs(matrix).max())):
-        raise ConfigError(parameter, 'expected a symmetric matrix')
-    eigenvalues = np.linalg.eigvalsh(matrix)
-    if eigenvalues.min() < -1e-12 * max(1.0, abs(eigenvalues).max()):
-        raise ConfigError(
-            parameter,
-            f'expected a positive semi-definite matrix, smallest eigenvalue '
-            f'{eigenvalues.min():.3g}')
-    return matrix
 
 
 def _names(parameter: str, names: Optional[Sequence[str]], size: int, prefix: str):
@@ -363,7 +173,7 @@ class StateSpaceModel:
         """
         a_matrix = square_from_flat('A', a)
         n_states = a_matrix.shape[0]
-        b_vector = _as_finite_vector('B', b)
+        b_vector = as_finite_vector('B', b)
         if b_vector.size % n_states:
             raise ConfigError(
                 'B',
@@ -371,7 +181,7 @@ class StateSpaceModel:
                 f'n = {n_states} from A; none for a model without inputs), '
                 f'got {b_vector.size}')
         n_inputs = b_vector.size // n_states
-        c_vector = _as_finite_vector('C', c)
+        c_vector = as_finite_vector('C', c)
         if c_vector.size == 0 or c_vector.size % n_states:
             raise ConfigError(
                 'C',

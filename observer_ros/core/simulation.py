@@ -21,7 +21,8 @@ import numpy as np
 
 from observer_ros.core.discretize import van_loan, zero_order_hold
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.model import covariance_from_flat, StateSpaceModel, vector_from_flat
+from observer_ros.core.flat_matrices import covariance_from_flat, vector_from_flat
+from observer_ros.core.model import StateSpaceModel
 
 _CACHE_SIZE = 64
 

@@ -12,4 +12,9 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The ROS 2 nodes: plant simulator, observer, state feedback and the one-process loop."""
+"""
+The ROS 2 nodes: plant simulator, observer, state feedback, bag player and one-process loop.
+
+Each node is thin wiring (:mod:`observer_ros.ros`) around a core object; the observer and
+the state feedback also come as managed (lifecycle) nodes.
+"""

@@ -52,11 +52,11 @@ from rclpy.utilities import remove_ros_args
 from rosgraph_msgs.msg import Clock
 
 from observer_ros.bags.storage import absolute_topic, BagError, message_type, Playback
+from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.messages import stamp_to_ns
-from observer_ros.ros.parameters import volatile_qos
+from observer_ros.ros.qos import volatile_qos
 from observer_ros.signals import StopSignals
 
-NANOSECONDS = 1_000_000_000
 
 #: Seconds between discovery matching and the first message.
 SETTLE = 0.2

@@ -32,14 +32,14 @@ from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 
+from observer_ros.app.plots import write_run_report
 from observer_ros.bags.storage import BagError, STORAGES, TopicToWrite, write_bag
 from observer_ros.config import System, validate_parameters
 from observer_ros.core.errors import ConfigError, DesignError
-from observer_ros.core.plots import write_run_report
 from observer_ros.nodes.observer import ObserverNode
 from observer_ros.nodes.plant_simulator import plant_done, PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
-from observer_ros.ros.parameters import add_executor_argument, make_executor, spin_until
+from observer_ros.ros.executors import add_executor_argument, make_executor, spin_until
 from observer_ros.ros.recorder import TopicRecorder
 from observer_ros.signals import StopSignals
 

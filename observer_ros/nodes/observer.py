@@ -44,11 +44,12 @@ from observer_ros.config import OBSERVER
 from observer_ros.core.errors import ConfigError, ObserverRosError
 from observer_ros.core.placement import preload_methods
 from observer_ros.core.streaming import EstimateSample, within_limit
+from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import JointStatesEncoder, MalformedMessage, VectorCodec
-from observer_ros.ros.parameters import ConfiguredNode, run_node
+from observer_ros.ros.parameters import ConfiguredNode
+from observer_ros.ros.run import run_node
 
-NANOSECONDS = 1_000_000_000
 
 #: How long a node-clock reading serves the clock tolerance check (see ``_clock_for``).
 CLOCK_REUSE_NS = 100_000_000

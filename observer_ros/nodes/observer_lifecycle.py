@@ -24,7 +24,7 @@ from ``observer.initial_state`` (or the first measurement) instead of an old est
 from observer_ros.config import OBSERVER
 from observer_ros.nodes.observer import ObserverWiring
 from observer_ros.ros.lifecycle import ManagedNode
-from observer_ros.ros.parameters import run_node
+from observer_ros.ros.run import run_node
 
 
 class ObserverLifecycleNode(ObserverWiring, ManagedNode):

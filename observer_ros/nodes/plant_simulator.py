@@ -57,17 +57,18 @@ from rosgraph_msgs.msg import Clock as ClockMessage
 from observer_ros.config import PLANT
 from observer_ros.core.simulation import PlantSimulator
 from observer_ros.core.streaming import within_limit
+from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import MalformedMessage, ns_to_stamp, VectorCodec
-from observer_ros.ros.parameters import ConfiguredNode, publisher_qos, run_node
+from observer_ros.ros.parameters import ConfiguredNode
+from observer_ros.ros.qos import publisher_qos
+from observer_ros.ros.run import run_node
 
 #: Wall-clock seconds the lockstep plant waits after its peers are discovered.
 LOCKSTEP_SETTLE = 0.5
 
 #: Wall-clock seconds between two looks for the peers the plant waits for at start.
 START_POLL = 0.02
-
-NANOSECONDS = 1_000_000_000
 
 
 class PlantSimulatorNode(ConfiguredNode):

@@ -17,7 +17,7 @@
 
 With integral action (``feedback.integral_poles`` or ``feedback.integral_gain``) it also
 subscribes ``y``: ``z`` integrates ``r - y_i`` of the measured outputs chosen by
-``feedback.integral_outputs`` (see :mod:`observer_ros.core.control` for the accumulation
+``feedback.integral_outputs`` (see :mod:`observer_ros.core.feedback_law` for the accumulation
 and the anti-windup). A run-time change of the gains, outputs or period resets ``z`` to zero;
 a change of anything else keeps it.
 
@@ -48,15 +48,15 @@ from typing import Optional
 from rclpy.clock import Clock, ClockType
 
 from observer_ros.config import FEEDBACK
-from observer_ros.core.control import IntegralAction, StateFeedbackLaw
 from observer_ros.core.errors import ConfigError
+from observer_ros.core.feedback_law import IntegralAction, StateFeedbackLaw
 from observer_ros.core.placement import preload_methods
 from observer_ros.core.streaming import within_limit
+from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import LATEST_STAMP_NS, MalformedMessage, VectorCodec
-from observer_ros.ros.parameters import ConfiguredNode, run_node
-
-NANOSECONDS = 1_000_000_000
+from observer_ros.ros.parameters import ConfiguredNode
+from observer_ros.ros.run import run_node
 
 
 def feedback_law(system) -> StateFeedbackLaw:

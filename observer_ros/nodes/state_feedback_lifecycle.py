@@ -25,7 +25,7 @@ once, then nothing until the next activation, whose watchdog arms with the first
 from observer_ros.config import FEEDBACK
 from observer_ros.nodes.state_feedback import StateFeedbackWiring
 from observer_ros.ros.lifecycle import ManagedNode
-from observer_ros.ros.parameters import run_node
+from observer_ros.ros.run import run_node
 
 
 class StateFeedbackLifecycleNode(StateFeedbackWiring, ManagedNode):

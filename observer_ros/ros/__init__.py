@@ -12,4 +12,12 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""ROS 2 adapters: the wire codec (without rclpy), messages to arrays, parameters, QoS."""
+"""
+ROS 2 wiring: messages, schema parameters, QoS, executors, node main, health, lifecycle.
+
+One module per subject: :mod:`~.cdr` (the wire codec, without rclpy, shared with the bag tools),
+:mod:`~.messages` (vectors to and from messages),
+:mod:`~.parameters` (the schema parameters declared with their types), :mod:`~.qos`,
+:mod:`~.clock` (the ``/clock`` guard), :mod:`~.executors`, :mod:`~.run` (every node's
+``main``), :mod:`~.diagnostics`, :mod:`~.lifecycle` (managed nodes) and :mod:`~.recorder`.
+"""

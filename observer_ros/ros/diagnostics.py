@@ -28,7 +28,7 @@ way ``diagnostic_aggregator`` groups them:
 - ``estimator`` (observer only): the innovation magnitude, estimator restarts and, with a
   Kalman filter, the windowed NIS against its chi-square bounds and the trace of ``P``.
 
-The checks are computed by :mod:`observer_ros.core.health`; this module only fills the
+The checks are computed by :mod:`observer_ros.app.health`; this module only fills the
 messages. ``/diagnostics`` is an absolute name: it stays global in a namespace.
 """
 
@@ -40,11 +40,12 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
-from observer_ros.config.system import sample_rate
-from observer_ros.core.health import (
+from observer_ros.app.health import (
     Check, combine, configuration_check, CounterWatch, covariance_values,
     ESTIMATOR_WARNING_COUNTERS, innovation_values, INPUT_WARNING_COUNTERS, InputMonitor,
-    NisWindow, stale_timeout, WARNING_COUNTERS)
+    nis_findings, stale_timeout, WARNING_COUNTERS)
+from observer_ros.config.system import sample_rate
+from observer_ros.core.consistency import NisWindow
 
 #: The topic every node reports on (absolute: not namespaced, as ROS expects).
 DIAGNOSTICS_TOPIC = '/diagnostics'
@@ -88,7 +89,7 @@ class DiagnosticsPublisher:
     node : ConfiguredNode
         Its ``system.parameters`` give the period and the hardware id.
     checks : callable
-        ``checks(now_ns)`` returns the :class:`~observer_ros.core.health.Check` list at
+        ``checks(now_ns)`` returns the :class:`~observer_ros.app.health.Check` list at
         ``now_ns`` (``time.monotonic_ns()``).
 
     With ``diagnostics.period`` 0 nothing is published (:attr:`timer` is None).
@@ -210,7 +211,7 @@ class NodeHealth:
         counters = self.counters()
         findings, values = innovation_values(list(self.innovations))
         if self.nis is not None:
-            found, shown = self.nis.findings()
+            found, shown = nis_findings(self.nis)
             findings += found
             values += shown
         trace = None
@@ -243,7 +244,7 @@ def monitor(system, topic: str, stale_default: float, required: bool = True,
     Return the :class:`InputMonitor` of one of a node's inputs from its parameters.
 
     ``stale_default`` is the node's own timeout for this input (0: automatic, see
-    :func:`observer_ros.core.health.stale_timeout`), used when ``diagnostics.stale_timeout``
+    :func:`observer_ros.app.health.stale_timeout`), used when ``diagnostics.stale_timeout``
     is 0.
     """
     params = system.parameters

@@ -48,8 +48,9 @@ from observer_ros.config import ParameterSpec, System, validate_parameters
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.ros.parameters import SchemaParameters
 
-#: The node's entities a configure may create, by the node method that destroys each kind.
-ENTITY_KINDS = (('publishers', 'destroy_publisher'),
+#: The node's entities a configure may create (by the node attribute listing them) and the
+#: node method that destroys each.
+ENTITY_LISTS = (('publishers', 'destroy_publisher'),
                 ('subscriptions', 'destroy_subscription'), ('timers', 'destroy_timer'),
                 ('services', 'destroy_service'), ('clients', 'destroy_client'))
 
@@ -205,11 +206,11 @@ class ManagedNode(SchemaParameters, LifecycleNode):
     # --- what configure made ---------------------------------------------------------------
 
     def _entities(self) -> dict:
-        return {kind: set(getattr(self, kind)) for kind, _ in ENTITY_KINDS}
+        return {listing: set(getattr(self, listing)) for listing, _ in ENTITY_LISTS}
 
     def _created(self, before: dict, attributes: set) -> dict:
         after = self._entities()
-        created = {kind: after[kind] - before[kind] for kind, _ in ENTITY_KINDS}
+        created = {listing: after[listing] - before[listing] for listing, _ in ENTITY_LISTS}
         created['attributes'] = set(vars(self)) - attributes
         return created
 
@@ -220,8 +221,8 @@ class ManagedNode(SchemaParameters, LifecycleNode):
         self.active = False
         if built is None:
             return
-        for kind, destroy in ENTITY_KINDS:
-            for entity in built[kind]:
+        for listing, destroy in ENTITY_LISTS:
+            for entity in built[listing]:
                 if isinstance(entity, LifecyclePublisher):
                     self.destroy_lifecycle_publisher(entity)
                 else:

@@ -37,6 +37,7 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from observer_ros.config import System
 from observer_ros.config.schema import topic_names
+from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.cdr import (
     DecodeError, HEADER, joint_order, JOINT_STATE_FIELDS, MessageReader, MessageWriter,
     ORIGIN, parse_layout, STAMP)
@@ -47,8 +48,6 @@ MESSAGE_CLASSES = {'joint_state': JointState, 'float64_multi_array': Float64Mult
 class MalformedMessage(ValueError):
     """A message that cannot give the expected vector (reason in the text)."""
 
-
-NANOSECONDS = 1_000_000_000
 
 #: The latest stamp a ``builtin_interfaces/Time`` holds (``sec`` is an int32).
 LATEST_STAMP_NS = (2 ** 31 - 1) * NANOSECONDS + NANOSECONDS - 1

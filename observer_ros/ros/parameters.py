@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-ROS parameters to and from the core's one schema.
+ROS parameters to and from the core's one schema, declared with their schema types.
 
 :class:`ConfiguredNode` declares the parameters of :data:`observer_ros.config.PARAMETERS`
 its node uses (structural ones read-only), validates them with
@@ -22,89 +22,24 @@ change with the same function: a rejected change returns the reason and leaves e
 as it was; an accepted one is applied after it is set.
 """
 
-import argparse
-import sys
-import time
 from typing import Callable, Optional
 
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
-import rclpy
-from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
-from rclpy.qos import (
-    DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy)
-from rclpy.qos_overriding_options import QoSOverridingOptions
-from rclpy.signals import SignalHandlerOptions
 from rclpy.subscription import Subscription
-from rclpy.utilities import remove_ros_args
 
 from observer_ros.config import (
     node_parameters, PARAMETER_SPECS, ParameterSpec, System, validate_parameters)
 from observer_ros.core.arguments import (
     BOOL, DOUBLE, DOUBLE_ARRAY, INTEGER, STRING, STRING_ARRAY)
 from observer_ros.core.errors import ConfigError, DesignError
-from observer_ros.ros.messages import LATEST_STAMP_NS, stamp_problem, stamp_to_ns
-from observer_ros.signals import StopSignals
+from observer_ros.ros.clock import guard_clock
+from observer_ros.ros.qos import publisher_qos, QOS_OVERRIDES, subscription_qos
 
 
-def volatile_qos(depth: int, reliable: bool) -> QoSProfile:
-    """Keep-last ``depth``, volatile, reliable or best effort: the package's QoS shapes."""
-    return QoSProfile(depth=depth, history=HistoryPolicy.KEEP_LAST,
-                      reliability=(ReliabilityPolicy.RELIABLE if reliable
-                                   else ReliabilityPolicy.BEST_EFFORT),
-                      durability=DurabilityPolicy.VOLATILE)
-
-
-def subscription_qos() -> QoSProfile:
-    """
-    Return the QoS of the nodes' subscriptions: best effort, which matches every publisher.
-
-    A new profile per call: rclpy writes ``qos_overrides`` into the profile it is given, so
-    a shared one would carry one topic's override to every later topic.
-    """
-    return volatile_qos(10, reliable=False)
-
-
-def publisher_qos() -> QoSProfile:
-    """Return the QoS of the nodes' publishers: reliable, which every subscription matches."""
-    return volatile_qos(10, reliable=True)
-
-
-#: Users may override history, depth and reliability per topic with the standard
-#: ``qos_overrides./<topic>.<publisher|subscription>.<policy>`` parameters.
-QOS_OVERRIDES = QoSOverridingOptions.with_default_policies()
-
-
-def guard_clock(node: Node, on_invalid: Callable[[str], None]) -> None:
-    """
-    Make ``node`` drop ``/clock`` messages that are no time instead of dying on them.
-
-    rclpy's time source turns every ``/clock`` into a ``Time``, which raises inside the
-    subscription callback for a negative ``sec`` (and takes ``nanosec >= 1e9`` or times
-    beyond what a stamp holds as they come). With ``use_sim_time`` that kills the node; the
-    guard passes only valid times on and reports the others to ``on_invalid``.
-    """
-    source = node._time_source  # rclpy exposes no hook on the /clock callback
-    original = source.clock_callback
-
-    def checked(message) -> None:
-        stamp = message.clock
-        problem = stamp_problem(stamp.sec, stamp.nanosec)
-        if problem is None and stamp_to_ns(stamp) > LATEST_STAMP_NS:
-            problem = f'sec={stamp.sec} is beyond what a stamp holds'
-        if problem:
-            on_invalid(problem)
-            return
-        original(message)
-
-    source.clock_callback = checked  # a /clock subscription made later binds this one
-    if source._clock_sub is not None:
-        source._clock_sub.callback = checked
-
-
-#: The ROS parameter type of each schema kind.
+#: The ROS parameter type of each schema value type.
 PARAMETER_TYPES = {
     DOUBLE: Parameter.Type.DOUBLE, DOUBLE_ARRAY: Parameter.Type.DOUBLE_ARRAY,
     STRING: Parameter.Type.STRING, STRING_ARRAY: Parameter.Type.STRING_ARRAY,
@@ -119,16 +54,16 @@ def coerced(spec: ParameterSpec, parameter: Parameter) -> Parameter:
     become strings for pole lists; anything else is returned as it is, for the validation
     to refuse with a reason.
     """
-    kind, value, given = spec.kind, parameter.value, parameter.type_
-    if kind == DOUBLE and given == Parameter.Type.INTEGER:
+    value_type, value, given = spec.value_type, parameter.value, parameter.type_
+    if value_type == DOUBLE and given == Parameter.Type.INTEGER:
         return Parameter(parameter.name, Parameter.Type.DOUBLE, float(value))
-    if kind == DOUBLE_ARRAY and given in (Parameter.Type.INTEGER_ARRAY,
-                                          Parameter.Type.BYTE_ARRAY) and (
+    if value_type == DOUBLE_ARRAY and given in (Parameter.Type.INTEGER_ARRAY,
+                                                Parameter.Type.BYTE_ARRAY) and (
             given == Parameter.Type.INTEGER_ARRAY or len(value) == 0):
         return Parameter(parameter.name, Parameter.Type.DOUBLE_ARRAY,
                          [float(item) for item in value])
-    if kind == STRING_ARRAY and (given in (Parameter.Type.DOUBLE_ARRAY,
-                                           Parameter.Type.INTEGER_ARRAY) or (
+    if value_type == STRING_ARRAY and (given in (Parameter.Type.DOUBLE_ARRAY,
+                                                 Parameter.Type.INTEGER_ARRAY) or (
             given == Parameter.Type.BYTE_ARRAY and len(value) == 0)):
         return Parameter(parameter.name, Parameter.Type.STRING_ARRAY,
                          [str(item) for item in value])
@@ -140,9 +75,9 @@ def type_problem(spec: ParameterSpec, parameter: Parameter) -> Optional[str]:
     if parameter.type_ == Parameter.Type.NOT_SET:
         return (f'{spec.name}: cannot be unset (NOT_SET); set its default '
                 f'{spec.default!r} instead')
-    if parameter.type_ != PARAMETER_TYPES[spec.kind]:
+    if parameter.type_ != PARAMETER_TYPES[spec.value_type]:
         given = parameter.type_.name.lower()
-        return f'{spec.name}: expected {spec.kind}, got {given} {parameter.value!r}'
+        return f'{spec.name}: expected {spec.value_type}, got {given} {parameter.value!r}'
     return None
 
 
@@ -151,14 +86,21 @@ class SchemaParameters:
     The schema parameters of a node: a mixin for ``Node`` and ``LifecycleNode``.
 
     :meth:`declare_schema` declares the parameters of a ``role``
-    (:func:`observer_ros.config.node_parameters`) with their schema types and installs the
-    callbacks that vet every set-parameters request before anything changes: a parameter
-    set to NOT_SET or to another type is refused with a reason naming it (integers are taken
-    as doubles), and, once :attr:`system` holds a configuration, the merged values must
+    (:func:`observer_ros.config.node_parameters`) statically typed with their schema types
+    (:data:`PARAMETER_TYPES`) and installs the callbacks that vet every set-parameters
+    request before anything changes: a parameter set to NOT_SET or to another type is
+    refused with a reason naming it (integers are taken as doubles, in a parameter file as
+    in a request), and, once :attr:`system` holds a configuration, the merged values must
     pass :func:`~observer_ros.config.validate_parameters` and :meth:`vet_system`; an
     accepted change goes to :meth:`apply_system` after it is set. While :attr:`system` is
     None (a managed node not configured yet) only the types are checked: configuring
     validates.
+
+    A parameter file that gives a parameter a value of another type (a string for a
+    double) is the one case declared with dynamic typing: the parameter holds that value,
+    so that validation refuses it by name with the reason it always gave (a plain node stops
+    with it, a managed node stays unconfigured and may be set right); a statically typed
+    parameter cannot hold it.
     """
 
     def declare_schema(self, role: str, managed: bool = False) -> None:
@@ -174,40 +116,58 @@ class SchemaParameters:
         self.role = role
         self.managed = managed
         self.specs = {spec.name: spec for spec in node_parameters(role, managed)}
+        self.system: Optional[System] = None
+        self._pending: Optional[System] = None
         for spec in self.specs.values():
             self._declare(spec)
         self._warn_unknown_overrides()
-        self.system: Optional[System] = None
-        self._pending: Optional[System] = None
         self.add_pre_set_parameters_callback(self._coerce_parameters)
         self.add_on_set_parameters_callback(self._vet_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
 
     def _declare(self, spec: ParameterSpec) -> None:
-        # rclpy types an empty default list as a byte array and cannot declare a typed empty
-        # array: declare it, store the value with the schema type, then fix the descriptor.
-        descriptor = ParameterDescriptor(description=spec.description, dynamic_typing=True)
-        declared = self.declare_parameter(spec.name, spec.default, descriptor)
-        typed = coerced(spec, declared)
-        if typed is not declared:
-            self.set_parameters([typed])
-        self.set_descriptor(spec.name, ParameterDescriptor(
-            description=spec.description, read_only=self._read_only(spec), dynamic_typing=True,
-            additional_constraints=self._constraints(spec)))
+        # rclpy refuses an integer from a parameter file for a double parameter: read the
+        # file's value here (ignore_override) and convert it to the schema type first.
+        given = self._overrides().get(spec.name)
+        if given is None:
+            given = Parameter(spec.name, value=spec.default)
+        typed = coerced(spec, given)
+        read_only = not (spec.dynamic or self.managed)
+        declared_type = PARAMETER_TYPES[spec.value_type]
+        if type_problem(spec, typed) is not None:  # see the class docstring
+            self.declare_parameter(spec.name, given.value, self._descriptor(
+                spec, read_only, dynamic=True), ignore_override=True)
+        elif Parameter.Type.from_parameter_value(typed.value) == declared_type:
+            self.declare_parameter(spec.name, typed.value, self._descriptor(spec, read_only),
+                                   ignore_override=True)
+        else:  # an empty list, which rclpy takes for a byte array: declare the type alone,
+            # set the value, then make it read-only (a read-only parameter cannot be set)
+            self.declare_parameter(spec.name, declared_type, self._descriptor(spec, False),
+                                   ignore_override=True)
+            super().set_parameters_atomically([typed])
+            if read_only:
+                self.set_descriptor(spec.name, self._descriptor(spec, True))
 
-    def _read_only(self, spec: ParameterSpec) -> bool:
-        return not (spec.dynamic or self.managed)
+    def _descriptor(self, spec: ParameterSpec, read_only: bool,
+                    dynamic: bool = False) -> ParameterDescriptor:
+        return ParameterDescriptor(
+            description=spec.description, read_only=read_only, dynamic_typing=dynamic,
+            type=0 if dynamic else PARAMETER_TYPES[spec.value_type].value,
+            additional_constraints=self._constraints(spec))
+
+    def _overrides(self) -> dict:
+        return getattr(self, '_parameter_overrides', {})  # rclpy keeps no public copy
 
     @staticmethod
     def _constraints(spec: ParameterSpec) -> str:
         limits = spec.range_text() or (f'entries of magnitude <= {spec.entry_limit:g}'
                                        if spec.entry_limit else '')
-        return f'{spec.kind}{" in " + limits if limits else ""}'
+        return f'{spec.value_type}{" in " + limits if limits else ""}'
 
     def _warn_unknown_overrides(self) -> None:
         """Warn about names of this node's sections in the parameter file that none has."""
         sections = {name.split('.', 1)[0] + '.' for name in self.specs}
-        given = getattr(self, '_parameter_overrides', {})  # rclpy keeps no public copy
+        given = self._overrides()
         unknown = sorted(name for name in given if name.startswith(tuple(sections))
                          and name not in PARAMETER_SPECS)
         for name in unknown:
@@ -227,20 +187,49 @@ class SchemaParameters:
         return [coerced(self.specs[p.name], p) if p.name in self.specs else p
                 for p in parameters]
 
-    def _vet_parameters(self, parameters) -> SetParametersResult:
-        merged = self.current_parameters()
-        touched = False
+    def set_parameters(self, parameter_list: list) -> list:
+        """Set each parameter on its own, as rclpy does, with :meth:`set_parameters_atomically`."""
+        return [self.set_parameters_atomically([parameter]) for parameter in parameter_list]
+
+    def set_parameters_atomically(self, parameter_list: list) -> SetParametersResult:
+        """
+        Set the parameters all together or none, the schema's refusals coming first.
+
+        rclpy checks a statically typed parameter's type before any callback, with a reason
+        that names no parameter: a schema parameter that is NOT_SET or of another type
+        (after the integer-to-double conversion), or that cannot change now, is refused
+        here first with :func:`type_problem`'s or :meth:`change_problem`'s reason, in the
+        order given. Undeclared and read-only parameters are left to rclpy, which raises or
+        refuses before anything else, as with dynamic typing.
+        """
+        refusal = self._refusal(parameter_list)
+        if refusal is not None:
+            return refusal
+        return super().set_parameters_atomically(parameter_list)
+
+    def _refusal(self, parameters: list) -> Optional[SetParametersResult]:
+        if not all(self.has_parameter(parameter.name) for parameter in parameters):
+            return None  # rclpy raises ParameterNotDeclaredException
+        for parameter in parameters:
+            if self.describe_parameter(parameter.name).read_only:
+                return super().set_parameters_atomically([parameter])  # rclpy's refusal
         for parameter in parameters:
             spec = self.specs.get(parameter.name)
             if spec is None:
                 continue
-            problem = type_problem(spec, parameter) or self.change_problem(spec)
+            problem = type_problem(spec, coerced(spec, parameter)) or self.change_problem(spec)
             if problem:
-                self._pending = None
-                self._restore_descriptors(parameters)
                 return SetParametersResult(successful=False, reason=problem)
-            merged[parameter.name] = parameter.value
-            touched = True
+        return None
+
+    def _vet_parameters(self, parameters) -> SetParametersResult:
+        # Types and changes were vetted by set_parameters_atomically; here: the values.
+        merged = self.current_parameters()
+        touched = False
+        for parameter in parameters:
+            if parameter.name in self.specs:
+                merged[parameter.name] = parameter.value
+                touched = True
         if not touched or self.system is None:
             return SetParametersResult(successful=True)
         try:
@@ -250,16 +239,6 @@ class SchemaParameters:
             self._pending = None
             return SetParametersResult(successful=False, reason=str(e))
         return SetParametersResult(successful=True)
-
-    def _restore_descriptors(self, parameters) -> None:
-        # rclpy retypes a dynamically typed parameter's descriptor to the requested type
-        # before asking this node; a refused request must leave the schema type shown.
-        for parameter in parameters:
-            spec = self.specs.get(parameter.name)
-            if spec is not None:
-                self.set_descriptor(spec.name, ParameterDescriptor(
-                    description=spec.description, read_only=self._read_only(spec),
-                    dynamic_typing=True, additional_constraints=self._constraints(spec)))
 
     def _apply_parameters(self, parameters) -> None:
         if self._pending is None:
@@ -328,104 +307,5 @@ class ConfiguredNode(SchemaParameters, Node):
         self.system = validate_parameters(self.current_parameters())
 
 
-#: Executors a node can spin on (``--executor``); the first is the default, the fastest in
-#: BENCHMARKS.md (latency and closed-loop rate). The MultiThreadedExecutor is not offered:
-#: each node's callbacks share one mutually exclusive group, so it adds only thread
-#: hand-offs, and a message arriving while a callback runs waits for the next wake-up
-#: (tens of milliseconds p50 for the observer in the latency benchmark).
-EXECUTORS = ('events', 'single')
-
-
-#: Seconds between two looks at the stop request while spinning.
-STOP_POLL = 0.1
-
-
-def make_executor(name: str, context=None) -> Executor:
-    """
-    Return the executor called ``name``.
-
-    ``'events'`` is rclpy's ``rclpy.experimental.EventsExecutor``, ``'single'`` the
-    ``SingleThreadedExecutor``.
-    """
-    if name == 'events':
-        from rclpy.experimental import EventsExecutor
-        return EventsExecutor(context=context)
-    if name == 'single':
-        return SingleThreadedExecutor(context=context)
-    raise ValueError(f'executor: expected one of {", ".join(EXECUTORS)}, got {name!r}')
-
-
-def spin_until(executor: Executor, done: Optional[Callable[[], bool]] = None,
-               timeout_sec: Optional[float] = None, context=None,
-               stop: Optional[Callable[[], bool]] = None) -> bool:
-    """
-    Spin ``executor`` until ``done()`` is true, the timeout passes or ROS shuts down.
-
-    Always ``spin_once`` in a loop: in the rclpy 7.1 wheels ``EventsExecutor.spin()``
-    delivers no message from another process, while ``spin_once`` delivers them. ``stop()``
-    (for example :attr:`observer_ros.signals.StopSignals.requested`) ends the spin early;
-    it is polled at least every :data:`STOP_POLL` seconds. Returns whether ``done()``
-    became true.
-    """
-    deadline = None if timeout_sec is None else time.monotonic() + timeout_sec
-    while rclpy.ok(context=context) and not (stop is not None and stop()):
-        if done is not None and done():
-            return True
-        if deadline is not None and time.monotonic() >= deadline:
-            break
-        executor.spin_once(timeout_sec=STOP_POLL if deadline is None else
-                           min(STOP_POLL, max(0.0, deadline - time.monotonic())))
-    return done is not None and done()
-
-
-def add_executor_argument(parser: argparse.ArgumentParser) -> None:
-    """Add the ``--executor`` option (one of :data:`EXECUTORS`, the first by default)."""
-    parser.add_argument('--executor', choices=EXECUTORS, default=EXECUTORS[0],
-                        help="rclpy executor: 'events' (rclpy.experimental.EventsExecutor, the "
-                        "fastest, default) or 'single' (SingleThreadedExecutor)")
-
-
-def executor_option(program: str, argv) -> str:
-    """Parse ``--executor`` from the non-ROS arguments (anything else is an error)."""
-    parser = argparse.ArgumentParser(
-        prog=program, description=f'ros2 run observer_ros {program} [--executor NAME] '
-        '--ros-args ...')
-    add_executor_argument(parser)
-    return parser.parse_args(remove_ros_args(argv)[1:]).executor
-
-
-def run_node(factory: Callable[[], Node], program: str, args=None,
-             done: Optional[Callable[[Node], Callable[[], bool]]] = None) -> int:
-    """
-    Spin one node the Jazzy way and return the exit status.
-
-    ``--executor`` (before ``--ros-args``) picks the executor. ``done(node)`` may return a
-    predicate that ends the spin. A bad configuration prints one line,
-    ``<program>: error: <parameter>: <reason>``, on stderr and returns 2. SIGINT and SIGTERM
-    stop the spin and return 0 after a clean shutdown; a second one is ignored
-    (:class:`observer_ros.signals.StopSignals`).
-    """
-    argv = sys.argv if args is None else list(args)
-    executor_name = executor_option(program, argv)
-    with StopSignals() as stop:
-        # rclpy's own handlers would raise KeyboardInterrupt inside callbacks and shut the
-        # context down from another thread: StopSignals replaces them.
-        rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
-        try:
-            node = factory()
-        except (ConfigError, DesignError) as e:
-            print(f'{program}: error: {e}', file=sys.stderr)
-            rclpy.try_shutdown()
-            return 2
-        executor = make_executor(executor_name)
-        try:
-            executor.add_node(node)
-            spin_until(executor, done(node) if done else None, stop=lambda: stop.requested)
-        except (KeyboardInterrupt, ExternalShutdownException):
-            pass
-        finally:
-            executor.remove_node(node)
-            node.destroy_node()
-            executor.shutdown()
-            rclpy.try_shutdown()
-    return 0
+__all__ = ['ConfiguredNode', 'PARAMETER_TYPES', 'SchemaParameters', 'coerced',
+           'type_problem']

@@ -23,7 +23,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from observer_ros.config import System
 from observer_ros.ros.messages import MalformedMessage, VectorCodec
-from observer_ros.ros.parameters import volatile_qos
+from observer_ros.ros.qos import volatile_qos
 
 #: Messages a recorder's subscription queues while its callback is behind.
 RECORDER_DEPTH = 1000

@@ -22,8 +22,8 @@ from typing import Optional
 import numpy as np
 import yaml
 
+from observer_ros.app.report import design_summary, format_report
 from observer_ros.config import load_parameter_file, PARAMETER_SPECS, validate_parameters
-from observer_ros.config.report import design_summary, format_report
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.signals import stops_on_signal
 

@@ -31,13 +31,13 @@ from pathlib import Path
 import sys
 import time
 
-from observer_ros.bags.replay import (
-    check_outputs, load_system, made_directories, reference_rmse, remove_outputs, replay_bag,
-    StateReference, write_replay)
+from observer_ros.app.plots import write_run_report
+from observer_ros.bags.replay import load_system, reference_rmse, replay_bag, StateReference
+from observer_ros.bags.replay_outputs import (
+    check_outputs, made_directories, remove_outputs, write_replay)
 from observer_ros.bags.storage import BagError, STORAGES
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.evaluation import align, settling_time
-from observer_ros.core.plots import write_run_report
 from observer_ros.signals import stops_on_signal
 
 REPORT_NAME = 'replay'

@@ -12,4 +12,4 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""Gain design: one module per observer type, plus state feedback and the controller."""
+"""Gain design: one module per observer type, plus the state feedback and its integral action."""

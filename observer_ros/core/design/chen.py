@@ -36,7 +36,8 @@ from observer_ros.core.analysis import format_modes, pbh_lost_modes, require_obs
 from observer_ros.core.design.common import (
     ObserverDesign, ObserverRealization, require_stable_poles)
 from observer_ros.core.errors import ConfigError, DesignError
-from observer_ros.core.model import matrix_from_flat, StateSpaceModel
+from observer_ros.core.flat_matrices import matrix_from_flat
+from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.placement import placement_residual, REPEATED_RTOL, sort_poles
 from observer_ros.core.poles import clean_poles
 

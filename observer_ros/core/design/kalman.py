@@ -37,7 +37,8 @@ from observer_ros.core.design.common import ObserverDesign
 from observer_ros.core.design.full_order import full_order_realization
 from observer_ros.core.discretize import van_loan, zero_order_hold
 from observer_ros.core.errors import ConfigError, DesignError
-from observer_ros.core.model import covariance_from_flat, StateSpaceModel
+from observer_ros.core.flat_matrices import covariance_from_flat
+from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.placement import sort_poles
 
 

@@ -36,7 +36,8 @@ from observer_ros.core.analysis import observability_matrix, require_observable
 from observer_ros.core.design.common import (
     check_given_gain_stable, ObserverDesign, ObserverRealization, require_stable_poles)
 from observer_ros.core.errors import ConfigError, DesignError
-from observer_ros.core.model import matrix_from_flat, StateSpaceModel
+from observer_ros.core.flat_matrices import matrix_from_flat
+from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.placement import place_observer
 
 COORDINATES = ('orthonormal', 'observability')

@@ -36,6 +36,7 @@ from observer_ros.core.estimators.protocol import (
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.placement import place_observer
 from observer_ros.core.poles import to_discrete
+from observer_ros.core.units import NANOSECONDS
 
 #: Number of distinct sample intervals whose step matrices are kept.
 DEFAULT_CACHE_SIZE = 256
@@ -45,8 +46,6 @@ RECENT_INTERVALS = 4
 
 #: Prediction intervals whose transition matrices are kept (:meth:`Estimator.predict`).
 PREDICTION_CACHE = 64
-
-NANOSECONDS = 1_000_000_000
 
 
 @dataclass(frozen=True)

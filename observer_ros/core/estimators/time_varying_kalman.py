@@ -43,9 +43,10 @@ from observer_ros.core.discretize import transition
 from observer_ros.core.errors import ConfigError, StampError
 from observer_ros.core.estimators.protocol import (
     Prediction, rounded_interval, RoundedIntervals, StateEstimator)
-from observer_ros.core.model import covariance_from_flat, StateSpaceModel
+from observer_ros.core.flat_matrices import covariance_from_flat
+from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.units import NANOSECONDS
 
-NANOSECONDS = 1_000_000_000
 
 #: Distinct intervals whose sampled model is kept.
 CACHE_SIZE = 256

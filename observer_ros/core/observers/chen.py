@@ -34,7 +34,7 @@ SEED = Argument('chen_seed', INTEGER, 0,
                 'Chen, several outputs, observer.gain empty: seed of the candidate choices of '
                 'L (the best-conditioned [C; T] is kept); no effect with one output '
                 '(0 ... 2^63 - 1).',
-                dynamic=True, low=0, high=SEED_MAX, unit='a seed')
+                tunable=True, low=0, high=SEED_MAX, unit='a seed')
 
 
 def design(model, values):

@@ -38,19 +38,19 @@ POLES = Argument(
     'Observer error poles as strings ("-10", "-2+2j", "zeta=0.8, wn=10"); s-plane for a '
     'continuous model, z-plane for a discrete one. n poles (full order) or n - p (reduced '
     'order, Chen); with model.disturbances n counts the disturbance states too.',
-    dynamic=True)
+    tunable=True)
 GAIN = array('gain', matrix_text('Given observer gain L instead of poles: n x p (full order) '
-                                 'or (n-p) x p (reduced order, Chen)'), dynamic=True)
+                                 'or (n-p) x p (reduced order, Chen)'), tunable=True)
 METHOD = Argument('method', STRING, 'auto',
-                  'Pole placement method: ' + ' | '.join(METHODS) + '.', dynamic=True,
+                  'Pole placement method: ' + ' | '.join(METHODS) + '.', tunable=True,
                   choices=METHODS)
 ERROR_TOLERANCE = Argument(
     'error_tolerance', DOUBLE, 0.0,
     'With observer.error_time: require ||e(T)|| <= tolerance for ||e(0)|| = 1 (slowest pole '
     'ln(tolerance)/T); 0 disables. Without poles, poles are generated at that bound.',
-    dynamic=True, low=0.0, high=1.0)
+    tunable=True, low=0.0, high=1.0)
 ERROR_TIME = seconds('error_time', 0.0, 'Time T in seconds of the error specification.',
-                     0.0, 1e6, dynamic=True)
+                     0.0, 1e6, tunable=True)
 FORM = Argument(
     'form', STRING, 'current',
     'Full order and Kalman: current (the filtered x[k|k], published with the measurement) | '

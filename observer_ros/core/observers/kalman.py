@@ -32,28 +32,28 @@ from observer_ros.core.errors import ConfigError
 from observer_ros.core.estimators import Estimator
 from observer_ros.core.estimators.kalman import KalmanStep
 from observer_ros.core.estimators.time_varying_kalman import TimeVaryingKalman
-from observer_ros.core.model import covariance_from_flat
+from observer_ros.core.flat_matrices import covariance_from_flat
 from observer_ros.core.observers import ObserverType, register, ReportItem
 from observer_ros.core.observers.common import FORM
 
 PROCESS_NOISE = array('process_noise', 'Kalman Q: n diagonal values or n x n row-major. '
                       'Continuous model: intensity (discretized per interval); discrete model: '
-                      'covariance.', dynamic=True)
+                      'covariance.', tunable=True)
 MEASUREMENT_NOISE = array('measurement_noise', 'Kalman R: p diagonal values or p x p '
                           'row-major; covariance of each sampled measurement (continuous '
-                          'model: intensity for the CARE design).', dynamic=True)
+                          'model: intensity for the CARE design).', tunable=True)
 DISTURBANCE_NOISE = array('disturbance_noise', 'Kalman with model.disturbances: process '
                           'noise of the disturbance states, one diagonal value each '
                           '(intensity or covariance like process_noise, which then covers '
                           'the plant states only): how fast the disturbances may wander.',
-                          dynamic=True)
+                          tunable=True)
 TIME_VARYING = Argument('time_varying', BOOL, False,
                         'Kalman: propagate the covariance over each actual interval (Joseph '
                         'form) instead of the steady-state filter of each interval.')
 INITIAL_COVARIANCE = array('initial_covariance', 'Time-varying Kalman: P0, n diagonal values '
                            'or n x n row-major (default: the identity); the first measurement '
                            'updates (initial_state, P0). n counts the disturbance states of '
-                           'model.disturbances.', dynamic=True)
+                           'model.disturbances.', tunable=True)
 
 
 def vet(model, given):

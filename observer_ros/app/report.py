@@ -18,8 +18,9 @@ import numpy as np
 
 from observer_ros.config.system import System
 from observer_ros.core.analysis import controllability, observability
-from observer_ros.core.design.controller import diophantine_controller, polynomial_text
 from observer_ros.core.errors import DesignError
+from observer_ros.core.loop_analysis.diophantine import diophantine_controller
+from observer_ros.core.loop_analysis.transfer_function import polynomial_text
 from observer_ros.core.poles import pole_pairs
 
 
@@ -57,14 +58,14 @@ def _target(system: System, disturbance) -> str:
 
 
 def _disturbance_rows(system: System) -> list:
-    """Return one JSON row per disturbance: kind, entry, states and generator modes."""
+    """Return one JSON row per disturbance: waveform (as ``kind``), entry, states, modes."""
     if system.disturbance is None:
         return []
     rows = []
     model = system.model
     for disturbance in system.disturbance.disturbances:
         block = slice(disturbance.first_state, disturbance.first_state + disturbance.n_states)
-        rows.append({'name': disturbance.name, 'kind': disturbance.kind,
+        rows.append({'name': disturbance.name, 'kind': disturbance.waveform,
                      'entry': _target(system, disturbance),
                      'frequency': disturbance.frequency,
                      'states': list(disturbance.state_names),

@@ -157,7 +157,7 @@ class IntegralAction:
     Examples
     --------
     >>> import numpy as np
-    >>> from observer_ros.core.control import IntegralAction, StateFeedbackLaw
+    >>> from observer_ros.core.feedback_law import IntegralAction, StateFeedbackLaw
     >>> law = StateFeedbackLaw([[4.0]], integral=IntegralAction([[6.0]], [0], period=0.1))
     >>> law.integral.measure(0, [0.0])
     >>> law.command(np.zeros(1), np.array([1.0]), stamp_ns=0).tolist()

@@ -21,15 +21,16 @@ import pytest
 import scipy.stats
 
 from conftest import CONFIG_DIR
-from observer_ros.config import load_parameter_file, validate_parameters
-from observer_ros.core.errors import ConfigError
-from observer_ros.core.health import (
+from observer_ros.app.health import (
     combine, configuration_check, CounterWatch, covariance_values, ERROR, innovation_values,
-    InputMonitor, nis_bounds, NisWindow, OK, stale_timeout, WARN)
+    InputMonitor, nis_findings, OK, stale_timeout, WARN)
+from observer_ros.config import load_parameter_file, validate_parameters
+from observer_ros.core.consistency import nis_bounds, NisWindow
+from observer_ros.core.errors import ConfigError
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.simulation import PlantSimulator
+from observer_ros.core.units import NANOSECONDS
 
-SECOND_NS = 1_000_000_000
 PERIOD_NS = 10_000_000
 KALMAN = load_parameter_file(str(CONFIG_DIR / 'kalman_noisy.yaml'))
 
@@ -60,22 +61,22 @@ def test_nis_window_waits_until_full_then_judges_both_sides():
     rng = np.random.default_rng(3)
     for value in rng.chisquare(1, 49):
         window.add(value)
-    assert window.findings()[0] == []  # filling: not judged yet
+    assert nis_findings(window)[0] == []  # filling: not judged yet
     window.add(1.0)
-    found, values = window.findings()
+    found, values = nis_findings(window)
     assert found == [], values
     for value in 100 * rng.chisquare(1, 50):  # R 100 times too small
         window.add(value)
-    (level, text), = window.findings()[0]
+    (level, text), = nis_findings(window)[0]
     assert level == WARN
     assert text.startswith('NIS mean ') and 'above the 99% bound 1.59 over 50 samples' in text
     assert text.endswith('R or Q too small (or a model error)')
     for value in 0.01 * rng.chisquare(1, 50):  # R 100 times too large
         window.add(value)
-    (level, text), = window.findings()[0]
+    (level, text), = nis_findings(window)[0]
     assert level == WARN and 'below the 99% bound 0.56' in text and 'R or Q too large' in text
     window.add(float('nan'))
-    assert window.findings()[0][0][0] == ERROR
+    assert nis_findings(window)[0][0][0] == ERROR
 
 
 @pytest.mark.parametrize('measurement_noise, expected', [(1e-4, OK), (1e-2, WARN)])
@@ -91,11 +92,11 @@ def test_kalman_nis_window_flags_a_measurement_noise_larger_than_configured(
         stamp = k * PERIOD_NS
         y = simulator.measure()
         samples = stream.add_input(stamp, [0.0]) + stream.add_measurement(stamp, y)
-        simulator.step(np.zeros(1), PERIOD_NS / SECOND_NS)
+        simulator.step(np.zeros(1), PERIOD_NS / NANOSECONDS)
         for sample in samples:
             window.add(sample.nis)
         if k >= 50 and k % 25 == 0:
-            findings = window.findings()[0]
+            findings = nis_findings(window)[0]
             levels.append(findings[0][0] if findings else OK)
     assert set(levels) == {expected}, levels
 
@@ -103,10 +104,10 @@ def test_kalman_nis_window_flags_a_measurement_noise_larger_than_configured(
 def test_input_monitor_rate_stale_and_recovery_messages():
     monitor = InputMonitor('y', 100.0, stale_timeout(0.0, 100.0), tolerance=0.5)
     monitor.start(0)
-    found, _ = monitor.findings(SECOND_NS // 10)
+    found, _ = monitor.findings(NANOSECONDS // 10)
     assert found == [(WARN, 'no y received yet in 0.1 s (expected every 0.01 s)')]
-    assert monitor.findings(SECOND_NS)[0][0][0] == ERROR  # nothing after the stale timeout
-    now = SECOND_NS
+    assert monitor.findings(NANOSECONDS)[0][0][0] == ERROR  # nothing after the stale timeout
+    now = NANOSECONDS
     for k in range(100):  # 100 Hz by the stamps, whatever the arrival jitter
         now += PERIOD_NS + (3_000_000 if k % 2 else -3_000_000)
         monitor.tick(k * PERIOD_NS, now)
@@ -121,7 +122,7 @@ def test_input_monitor_rate_stale_and_recovery_messages():
     assert monitor.findings(later)[0] == [(WARN, 'y at 40 Hz, expected 100 Hz (+-50%)')]
     for k in range(100):
         later += PERIOD_NS
-        monitor.tick(k * PERIOD_NS + 10 * SECOND_NS, later)
+        monitor.tick(k * PERIOD_NS + 10 * NANOSECONDS, later)
     assert monitor.findings(later)[0] == []
 
 
@@ -131,13 +132,13 @@ def test_input_monitor_minimum_only_and_optional_inputs():
     for k in range(200):  # 200 Hz
         fast.tick(k * 5_000_000, k * 5_000_000)
         two_sided.tick(k * 5_000_000, k * 5_000_000)
-    assert fast.findings(SECOND_NS)[0] == []
-    assert two_sided.findings(SECOND_NS)[0][0][0] == WARN
+    assert fast.findings(NANOSECONDS)[0] == []
+    assert two_sided.findings(NANOSECONDS)[0][0][0] == WARN
     optional = InputMonitor('reference', None, 0.5, required=False)
     optional.start(0)
-    assert optional.findings(10 * SECOND_NS)[0] == []
+    assert optional.findings(10 * NANOSECONDS)[0] == []
     optional.tick(0, 0)
-    assert optional.findings(10 * SECOND_NS)[0] == [
+    assert optional.findings(10 * NANOSECONDS)[0] == [
         (OK, 'reference stale for 10 s')]
 
 

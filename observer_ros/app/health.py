@@ -22,27 +22,27 @@ levels are those of ``DiagnosticStatus``: :data:`OK`, :data:`WARN`, :data:`ERROR
 - :class:`InputMonitor`: the rate of one input topic measured from its stamps (data time,
   so a lockstep or replayed run measures the simulated rate) against the expected rate, and
   the age of its latest message on the steady clock (a stale input).
-- :class:`NisWindow`: the mean NIS over the last ``N`` samples against its two-sided
-  chi-square bounds (:func:`nis_bounds`), the consistency test of a Kalman filter.
+- :func:`nis_findings`: the mean NIS over the last ``N`` samples
+  (:class:`~observer_ros.core.consistency.NisWindow`) against its two-sided chi-square
+  bounds, the consistency test of a Kalman filter.
 - :class:`CounterWatch`: counters that grew since the last report (dropped or repaired
   data), by reason.
 """
 
-from collections import Counter, deque
+from collections import Counter
 from dataclasses import dataclass, field
-from functools import lru_cache
 import math
 from typing import Iterable, Mapping, Optional, Sequence
 
 import numpy as np
 
 from observer_ros.core.analysis import format_modes, observability
+from observer_ros.core.consistency import NisWindow
+from observer_ros.core.units import NANOSECONDS
 
 #: Levels of ``diagnostic_msgs/DiagnosticStatus``.
 OK, WARN, ERROR = 0, 1, 2
 LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR'}
-
-NANOSECONDS = 1_000_000_000
 
 #: Counters of dropped or repaired input data: their growth warns in the inputs status.
 INPUT_WARNING_COUNTERS = ('malformed', 'out_of_range', 'future_stamp', 'duplicate',
@@ -235,106 +235,34 @@ def stale_timeout(configured: float, expected_rate: Optional[float]) -> float:
     return max(STALE_PERIODS / expected_rate, STALE_FLOOR)
 
 
-@lru_cache(maxsize=64)
-def nis_bounds(window: int, outputs: int, confidence: float = 0.99) -> tuple:
+def nis_findings(window: NisWindow) -> tuple:
     """
-    Two-sided bounds of the mean of ``window`` NIS values of a consistent filter.
+    Return ``(findings, values)`` of a NIS window: its mean against its bounds.
 
-    Each NIS of a consistent Kalman filter with ``outputs`` measurements is chi-square with
-    ``outputs`` degrees of freedom; their sum over ``window`` independent samples is
-    chi-square with ``window * outputs``, so the mean lies between the returned bounds
-    with probability ``confidence``.
-
-    Parameters
-    ----------
-    window : int
-        Number of NIS samples averaged (``N >= 1``).
-    outputs : int
-        Measurement dimension ``p >= 1``.
-    confidence : float
-        Two-sided probability in (0, 1).
-
-    Returns
-    -------
-    tuple of float
-        ``(low, high)`` bounds of the mean NIS.
-
-    Raises
-    ------
-    ValueError
-        Naming the argument out of range.
-
-    Examples
-    --------
-    >>> low, high = nis_bounds(50, 1, 0.99)
-    >>> round(low, 3), round(high, 3)
-    (0.56, 1.59)
-
+    Not judged until the window is full; a mean above the upper bound warns that R or Q is
+    too small (or the model wrong), below the lower one that they are too large; a mean
+    that is not finite is an :data:`ERROR`.
     """
-    if window < 1:
-        raise ValueError(f'window: expected at least 1 sample, got {window}')
-    if outputs < 1:
-        raise ValueError(f'outputs: expected at least 1, got {outputs}')
-    if not 0 < confidence < 1:
-        raise ValueError(f'confidence: expected a probability in (0, 1), got {confidence}')
-    from scipy.stats import chi2  # scipy.stats is slow to import: only when it is used
-    dof = window * outputs
-    tail = (1 - confidence) / 2
-    return float(chi2.ppf(tail, dof)) / window, float(chi2.ppf(1 - tail, dof)) / window
-
-
-class NisWindow:
-    """
-    The last ``window`` NIS values and their chi-square consistency test.
-
-    Parameters
-    ----------
-    window : int
-        Samples averaged.
-    outputs : int
-        Measurement dimension ``p``.
-    confidence : float
-        Two-sided confidence of the bounds (:func:`nis_bounds`).
-
-    """
-
-    def __init__(self, window: int, outputs: int, confidence: float = 0.99) -> None:
-        self.window = int(window)
-        self.outputs = int(outputs)
-        self.confidence = float(confidence)
-        self.low, self.high = nis_bounds(self.window, self.outputs, self.confidence)
-        self.values: deque = deque(maxlen=self.window)
-
-    def add(self, nis: float) -> None:
-        """Add one NIS value."""
-        self.values.append(nis)
-
-    def clear(self) -> None:
-        """Forget the values (after an estimator restart)."""
-        self.values.clear()
-
-    def findings(self) -> tuple:
-        """Return ``(findings, values)``: the window mean against the bounds."""
-        count = len(self.values)
-        mean = math.fsum(self.values) / count if count else math.nan
-        bound = f'{self.confidence:.4g}'.rstrip('0')
-        values = [('nis.mean', 'none' if not count else f'{mean:.4g}'),
-                  ('nis.samples', count), ('nis.window', self.window),
-                  ('nis.bound_low', f'{self.low:.4g}'), ('nis.bound_high', f'{self.high:.4g}'),
-                  ('nis.confidence', bound)]
-        if count < self.window:
-            return [], values
-        over = f'over {count} samples'
-        percent = f'{self.confidence * 100:.4g}%'
-        if not math.isfinite(mean):
-            return [(ERROR, f'NIS mean is not finite {over}')], values
-        if mean > self.high:
-            return [(WARN, f'NIS mean {mean:.3g} above the {percent} bound {self.high:.3g} '
-                     f'{over}: R or Q too small (or a model error)')], values
-        if mean < self.low:
-            return [(WARN, f'NIS mean {mean:.3g} below the {percent} bound {self.low:.3g} '
-                     f'{over}: R or Q too large')], values
+    count = len(window.values)
+    mean = window.mean
+    bound = f'{window.confidence:.4g}'.rstrip('0')
+    values = [('nis.mean', 'none' if not count else f'{mean:.4g}'),
+              ('nis.samples', count), ('nis.window', window.window),
+              ('nis.bound_low', f'{window.low:.4g}'), ('nis.bound_high', f'{window.high:.4g}'),
+              ('nis.confidence', bound)]
+    if not window.full:
         return [], values
+    over = f'over {count} samples'
+    percent = f'{window.confidence * 100:.4g}%'
+    if not math.isfinite(mean):
+        return [(ERROR, f'NIS mean is not finite {over}')], values
+    if mean > window.high:
+        return [(WARN, f'NIS mean {mean:.3g} above the {percent} bound {window.high:.3g} '
+                 f'{over}: R or Q too small (or a model error)')], values
+    if mean < window.low:
+        return [(WARN, f'NIS mean {mean:.3g} below the {percent} bound {window.low:.3g} '
+                 f'{over}: R or Q too large')], values
+    return [], values
 
 
 class CounterWatch:
@@ -460,6 +388,6 @@ def covariance_values(trace: Optional[float]) -> tuple:
 
 
 __all__ = ['Check', 'CounterWatch', 'ERROR', 'ESTIMATOR_WARNING_COUNTERS',
-           'INPUT_WARNING_COUNTERS', 'InputMonitor', 'LEVEL_NAMES', 'NisWindow', 'OK', 'WARN',
+           'INPUT_WARNING_COUNTERS', 'InputMonitor', 'LEVEL_NAMES', 'OK', 'WARN',
            'WARNING_COUNTERS', 'combine', 'configuration_check', 'covariance_values',
-           'innovation_values', 'nis_bounds', 'stale_timeout']
+           'innovation_values', 'nis_findings', 'stale_timeout']
