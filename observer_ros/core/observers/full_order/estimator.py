@@ -57,7 +57,7 @@ class FullOrderStep(StepDesign):
             except np.linalg.LinAlgError as e:
                 raise ConfigError(
                     'gain', 'a discrete model with a singular A cannot run a given '
-                    'predictor gain in current-estimator form; give observer.poles') from e
+                    'predictor gain in current-estimator form; give poles') from e
 
     def design_step(self, ad, bd, dt) -> StepMatrices:
         """Place ``eig((I - M C) Ad)`` at the discrete poles and assemble the step."""
