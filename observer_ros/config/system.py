@@ -265,7 +265,8 @@ def _observer_kind(params: dict) -> ObserverType:
 
 def _design_source(kind: ObserverType, params: dict) -> str:
     """Return the parameter a failed observer design is charged to when it names none."""
-    return parameter_for('observer', kind.charged_argument(_given_observer_values(params)))
+    charged = parameter_for('observer', kind.charged_argument(_given_observer_values(params)))
+    return charged or 'observer.type'  # a type that charges no argument of its own
 
 
 def _design_observer(kind: ObserverType, params: dict, model: StateSpaceModel,
