@@ -26,10 +26,10 @@ import numpy as np
 
 from benchmarks.common import CONFIG_DIR, pyplot, Section
 from observer_ros.config import load_parameter_file, validate_parameters
-from observer_ros.core.design.chen import design_chen
-from observer_ros.core.design.full_order import design_full_order
-from observer_ros.core.design.reduced_order import design_reduced_order
-from observer_ros.core.estimators import make_estimator
+from observer_ros.core import make_estimator
+from observer_ros.core.observers.chen.design import design_chen
+from observer_ros.core.observers.full_order.design import design_full_order
+from observer_ros.core.observers.reduced_order.design import design_reduced_order
 from observer_ros.core.simulation import PlantSimulator
 
 BURN_IN = 1000

@@ -32,10 +32,10 @@ import numpy as np
 import yaml
 
 from benchmarks.common import CONFIG_DIR, per_call, random_stable_system, Section, timed
-from observer_ros.core.design.full_order import design_full_order
-from observer_ros.core.design.kalman import design_kalman
-from observer_ros.core.estimators import make_estimator
+from observer_ros.core import make_estimator
 from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.observers.full_order.design import design_full_order
+from observer_ros.core.observers.kalman.design import design_kalman
 
 
 def resident_kib(parameter_file: str) -> int:

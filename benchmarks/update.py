@@ -24,15 +24,15 @@ discretizes the model and designs the discrete observer (placement or Riccati) a
 import numpy as np
 
 from benchmarks.common import per_call, pyplot, random_stable_system, Section
-from observer_ros.core.design.chen import design_chen
-from observer_ros.core.design.full_order import design_full_order
-from observer_ros.core.design.kalman import design_kalman
-from observer_ros.core.design.reduced_order import (
-    design_reduced_order, measured_first_transform, partition_model)
+from observer_ros.core import make_estimator
 from observer_ros.core.discretize import van_loan, zero_order_hold
 from observer_ros.core.errors import DesignError
-from observer_ros.core.estimators import make_estimator
 from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.observers.chen.design import design_chen
+from observer_ros.core.observers.full_order.design import design_full_order
+from observer_ros.core.observers.kalman.design import design_kalman
+from observer_ros.core.observers.reduced_order.design import (
+    design_reduced_order, measured_first_transform, partition_model)
 
 PERIOD_NS = 10_000_000
 TYPES = ('full_order', 'reduced_order', 'chen', 'kalman')
@@ -164,7 +164,7 @@ def time_varying_cost(n: int, smoke: bool, rng) -> dict:
     """
     from filterpy.kalman import KalmanFilter
     from observer_ros.core.discretize import transition
-    from observer_ros.core.estimators import TimeVaryingKalman
+    from observer_ros.core import TimeVaryingKalman
     p = outputs_for(n)
     a, b, c = random_stable_system(rng, n, 1, p)
     model = StateSpaceModel(a=a, b=b, c=c, d=np.zeros((p, 1)))

@@ -19,6 +19,7 @@ import os
 import signal
 import subprocess
 import time
+from typing import Optional
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 import numpy as np
@@ -80,10 +81,10 @@ def overrides(**values):
 class NodeProcess:
     """A console-script node in a subprocess, stopped with SIGINT."""
 
-    def __init__(self, executable: str, *args: str) -> None:
+    def __init__(self, executable: str, *args: str, env: Optional[dict] = None) -> None:
         self.process = subprocess.Popen(
             [console_script(executable), *args], stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE, text=True, env=dict(os.environ))
+            stderr=subprocess.PIPE, text=True, env=dict(os.environ) if env is None else env)
 
     def stop(self, timeout: float = 10.0):
         """Interrupt (like Ctrl-C) and return ``(returncode, stdout, stderr)``."""

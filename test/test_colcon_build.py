@@ -83,3 +83,21 @@ def test_every_module_is_installed(colcon_install):
               if '__pycache__' not in path.parts}
     installed = {path.relative_to(site) for path in (site / 'observer_ros').rglob('*.py')}
     assert source - installed == set()
+
+
+def test_the_install_tree_registers_the_observer_types(colcon_install):
+    # The types are found through the entry points of the installed distribution.
+    site = next(colcon_install.glob('lib/python3*/site-packages'))
+    metadata = next(site.glob('observer_ros*.egg-info')) / 'entry_points.txt'
+    text = metadata.read_text(encoding='utf-8')
+    assert '[observer_ros.observer_types]' in text
+    for name in ('full_order', 'reduced_order', 'chen', 'kalman'):
+        assert f'{name} = observer_ros.core.observers.{name}:TYPE' in text
+    code = ('from importlib.metadata import distribution\n'
+            'from observer_ros.core.observers import observer_types\n'
+            "print(distribution('observer_ros')._path, [t.name for t in observer_types()])")
+    result = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                            env=dict(os.environ, PYTHONPATH=str(site)), cwd=str(colcon_install),
+                            timeout=60)
+    assert str(site) in result.stdout, result.stderr
+    assert "['full_order', 'reduced_order', 'chen', 'kalman']" in result.stdout

@@ -36,11 +36,7 @@ import yaml
 
 from conftest import CONFIG_DIR, console_script
 from observer_ros import config
-from observer_ros.core.design import chen
-from observer_ros.core.design.chen import design_chen, orthonormal_chen
 from observer_ros.core.design.feedback import design_feedback
-from observer_ros.core.design.full_order import design_full_order
-from observer_ros.core.design.reduced_order import design_reduced_order
 from observer_ros.core.discretize import zero_order_hold
 from observer_ros.core.errors import DesignError
 from observer_ros.core.loop_analysis.diophantine import diophantine_controller
@@ -48,6 +44,10 @@ from observer_ros.core.loop_analysis.frequency import response_disagreement
 from observer_ros.core.loop_analysis.observer_controller import (
     AGREEMENT_RTOL, controller_transfer_function, ControllerMismatchWarning)
 from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.observers.chen import design as chen
+from observer_ros.core.observers.chen.design import design_chen, orthonormal_chen
+from observer_ros.core.observers.full_order.design import design_full_order
+from observer_ros.core.observers.reduced_order.design import design_reduced_order
 
 # --------------------------------------------------------------------------------------
 # Exact reference.

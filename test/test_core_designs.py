@@ -34,12 +34,7 @@ import scipy.optimize
 import scipy.signal
 
 from conftest import match
-from observer_ros.core.design.chen import design_chen, MAX_CONDITION
 from observer_ros.core.design.feedback import design_feedback
-from observer_ros.core.design.full_order import design_full_order
-from observer_ros.core.design.kalman import design_kalman, design_sampled_kalman
-from observer_ros.core.design.reduced_order import (
-    design_reduced_order, measured_first_transform, partition_model)
 from observer_ros.core.discretize import van_loan, zero_order_hold
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.loop_analysis.closed_loop import closed_loop_matrix, closed_loop_poles
@@ -47,6 +42,11 @@ from observer_ros.core.loop_analysis.diophantine import diophantine_controller
 from observer_ros.core.loop_analysis.observer_controller import (
     controller_state_space, controller_transfer_function, UnstableControllerWarning)
 from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.observers.chen.design import design_chen, MAX_CONDITION
+from observer_ros.core.observers.full_order.design import design_full_order
+from observer_ros.core.observers.kalman.design import design_kalman, design_sampled_kalman
+from observer_ros.core.observers.reduced_order.design import (
+    design_reduced_order, measured_first_transform, partition_model)
 
 
 def assert_same_roots(achieved, wanted, rtol=1e-8):

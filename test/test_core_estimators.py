@@ -34,14 +34,14 @@ import scipy.linalg
 import scipy.optimize
 import scipy.signal
 
-from observer_ros.core.design.chen import design_chen
-from observer_ros.core.design.full_order import design_full_order
-from observer_ros.core.design.kalman import design_kalman
-from observer_ros.core.design.reduced_order import design_reduced_order
+from observer_ros.core import make_estimator
 from observer_ros.core.errors import StampError
-from observer_ros.core.estimators import make_estimator
 from observer_ros.core.estimators.base import Estimator
 from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.observers.chen.design import design_chen
+from observer_ros.core.observers.full_order.design import design_full_order
+from observer_ros.core.observers.kalman.design import design_kalman
+from observer_ros.core.observers.reduced_order.design import design_reduced_order
 from observer_ros.core.simulation import PlantSimulator
 from observer_ros.core.units import NANOSECONDS
 

@@ -33,15 +33,15 @@ import scipy.signal
 from conftest import match
 from observer_ros.core import placement
 from observer_ros.core.analysis import observability, observability_matrix
-from observer_ros.core.design.chen import design_chen
 from observer_ros.core.design.feedback import design_feedback
-from observer_ros.core.design.full_order import design_full_order
-from observer_ros.core.design.reduced_order import design_reduced_order
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.loop_analysis.diophantine import diophantine_controller, solve_diophantine
 from observer_ros.core.loop_analysis.observer_controller import (
     controller_transfer_function, UnstableControllerWarning)
 from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.observers.chen.design import design_chen
+from observer_ros.core.observers.full_order.design import design_full_order
+from observer_ros.core.observers.reduced_order.design import design_reduced_order
 from observer_ros.core.poles import (
     damping_pair, parse_poles, poles_meeting_error_spec, slowest_allowed_pole)
 

@@ -27,9 +27,9 @@ import scipy.stats
 
 from conftest import CONFIG_DIR
 from observer_ros.config import load_parameter_file, validate_parameters
-from observer_ros.core.design.kalman import design_kalman, design_sampled_kalman
-from observer_ros.core.estimators import make_estimator, TimeVaryingKalman
+from observer_ros.core import make_estimator, TimeVaryingKalman
 from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.observers.kalman.design import design_kalman, design_sampled_kalman
 from observer_ros.core.simulation import PlantSimulator
 from observer_ros.core.streaming import StreamEstimator
 

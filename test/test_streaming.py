@@ -17,9 +17,9 @@
 import numpy as np
 import pytest
 
-from observer_ros.core.design.full_order import design_full_order
-from observer_ros.core.estimators import make_estimator
+from observer_ros.core import make_estimator
 from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.observers.full_order.design import design_full_order
 from observer_ros.core.simulation import PlantSimulator
 from observer_ros.core.streaming import StreamEstimator
 from observer_ros.core.units import NANOSECONDS

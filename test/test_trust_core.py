@@ -29,10 +29,10 @@ from conftest import CONFIG_DIR
 from observer_ros.config import (
     DOUBLE, INTEGER, load_parameter_file, PARAMETERS, validate_parameters)
 from observer_ros.config.schema import node_parameters, OBSERVER, PLANT
-from observer_ros.core.design.full_order import design_full_order
+from observer_ros.core import make_estimator
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.estimators import make_estimator
 from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.observers.full_order.design import design_full_order
 from observer_ros.core.simulation import PlantSimulator
 from observer_ros.core.streaming import StreamEstimator, ValueLimits
 from observer_ros.core.units import NANOSECONDS

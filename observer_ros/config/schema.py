@@ -27,10 +27,9 @@ import json
 
 from observer_ros.core.arguments import (
     Argument, array as _array, BOOL, DOUBLE, ENTRY_LIMIT, INTEGER, matrix_text as _matrix,
-    number_text, STRING, STRING_ARRAY)
+    number_text, SEED_MAX, STRING, STRING_ARRAY)
 from observer_ros.core.arguments import seconds as _core_seconds
-from observer_ros.core.observers import observer_arguments, observer_types
-from observer_ros.core.observers.chen import SEED_MAX
+from observer_ros.core.observers import observer_arguments, observer_type_names, observer_types
 from observer_ros.core.placement import METHODS
 
 #: The nodes of the package, by the name each declares its parameters under.
@@ -162,9 +161,9 @@ MODEL = (
 )
 
 OBSERVER_STREAM = (
-    _spec('observer.type', STRING, 'full_order',
+    _spec('observer.type', STRING, observer_types()[0].name,
           ' | '.join(kind.name for kind in observer_types()) + ' (the registered observer '
-          'types).', _OBS, choices=tuple(kind.name for kind in observer_types())),
+          'types).', _OBS, choices=observer_type_names()),
     _values('observer.initial_state', 'Initial estimate, n values (with model.disturbances: '
             'plant then disturbance states). Empty (the default): the '
             'first measurement initialises the estimate (least-norm x with C x = y; a '

@@ -27,7 +27,7 @@ import warnings
 
 import numpy as np
 
-from observer_ros.config.names import named
+from observer_ros.config.names import named, parameter_for
 from observer_ros.config.schema import PARAMETER_SPECS, PARAMETERS, ROS_PARAMETERS
 from observer_ros.core.arguments import number_text
 from observer_ros.core.design.common import ObserverDesign
@@ -42,7 +42,7 @@ from observer_ros.core.loop_analysis.closed_loop import closed_loop_poles
 from observer_ros.core.loop_analysis.observer_controller import controller_transfer_function
 from observer_ros.core.loop_analysis.transfer_function import ControllerTransferFunction
 from observer_ros.core.model import StateSpaceModel
-from observer_ros.core.observers import observer_type, ObserverType
+from observer_ros.core.observers import disturbance_arguments, observer_type, ObserverType
 from observer_ros.core.observers.common import parsed_poles
 from observer_ros.core.simulation import input_limits_from_flat
 from observer_ros.core.streaming import StreamEstimator, ValueLimits
@@ -196,7 +196,12 @@ class System:
             return self.kind.estimator(self.observer, self.observer_values(),
                                        self.initial_estimate, self.interval_resolution_ns)
         except ConfigError as e:
-            raise named(e, 'observer', _observer_fallback(self.parameters)) from e
+            raise named(e, 'observer', self.design_source) from e
+
+    @property
+    def design_source(self) -> str:
+        """The parameter a failed observer design is charged to when its error names none."""
+        return _design_source(self.kind, self.parameters)
 
     @property
     def form(self) -> str:
@@ -248,34 +253,36 @@ def complete_parameters(params: Mapping[str, Any], strict: bool = False) -> dict
     return complete
 
 
-def _observer_fallback(params: dict) -> str:
+def _given_observer_values(params: dict) -> dict:
+    """Return the ``observer.*`` values by the names of the type's arguments."""
+    return {name[len('observer.'):]: value for name, value in params.items()
+            if name.startswith('observer.')}
+
+
+def _observer_kind(params: dict) -> ObserverType:
+    try:
+        return observer_type(params['observer.type'])
+    except ConfigError as e:
+        raise named(e, 'observer', 'observer.type') from e
+
+
+def _design_source(kind: ObserverType, params: dict) -> str:
     """Return the parameter a failed observer design is charged to when it names none."""
-    if params['observer.type'] == 'kalman':
-        return 'observer.process_noise'
-    return 'observer.gain' if params['observer.gain'] else 'observer.poles'
+    charged = parameter_for('observer', kind.charged_argument(_given_observer_values(params)))
+    return charged or 'observer.type'  # a type that charges no argument of its own
 
 
-def _design_observer(params: dict, model: StateSpaceModel,
+def _design_observer(kind: ObserverType, params: dict, model: StateSpaceModel,
                      disturbance: Optional[DisturbanceModel] = None) -> Optional[ObserverDesign]:
-    kind = observer_type(params['observer.type'])
-    given = {name[len('observer.'):]: value for name, value in params.items()
-             if name.startswith('observer.')}
-    if params['observer.disturbance_noise'] and disturbance is None:
-        raise ConfigError('observer.disturbance_noise', 'the model has no disturbances '
-                          '(model.disturbances); leave it empty')
-    if disturbance is not None and kind.name == 'kalman' and given.get('process_noise'):
-        if not given.get('disturbance_noise'):
-            states = list(model.state_names[disturbance.plant.n_states:])
-            raise ConfigError('observer.disturbance_noise', f'expected '
-                              f'{disturbance.n_disturbance_states} values (the process noise '
-                              f'of the disturbance states {states}), got none')
-        plant_q = covariance_from_flat('observer.process_noise', given['process_noise'],
-                                       disturbance.plant.n_states)
-        given['process_noise'] = augmented_noise(
-            plant_q, given['disturbance_noise'], disturbance.n_disturbance_states).ravel().tolist()
+    given = _given_observer_values(params)
+    if disturbance is None:
+        for argument in disturbance_arguments():
+            if given.get(argument):
+                raise ConfigError(argument, 'the model has no disturbances '
+                                  '(model.disturbances); leave it empty')
     if kind.vet is not None:
         kind.vet(model, given)
-    return kind.design(model, kind.values(given))
+    return kind.design(model, kind.values(given), disturbance)
 
 
 def _check_inside(parameter: str, vector: np.ndarray, limits, source: str) -> None:
@@ -682,7 +689,7 @@ def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> Syst
     Parameters
     ----------
     params : mapping
-        ``{'model.A': [...], 'observer.type': 'chen', ...}``; missing names take their
+        ``{'model.A': [...], 'observer.poles': ['-8', '-9'], ...}``; missing names take their
         defaults from the schema (:data:`observer_ros.config.schema.PARAMETERS`).
     strict : bool
         Reject names outside the schema (besides ROS's own).
@@ -713,9 +720,10 @@ def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> Syst
     disturbance = _disturbance(complete, plant_model)
     if disturbance is not None:
         model = disturbance.augmented
-    fallback = _observer_fallback(complete)
+    kind = _observer_kind(complete)
+    fallback = _design_source(kind, complete)
     try:
-        observer = _design_observer(complete, model, disturbance)
+        observer = _design_observer(kind, complete, model, disturbance)
     except (ConfigError, DesignError) as e:
         raise named(e, 'observer', fallback) from e
     except NUMERIC_FAILURES as e:
@@ -732,7 +740,11 @@ def validate_parameters(params: Mapping[str, Any], strict: bool = False) -> Syst
     _check_sample_period(complete, model, params)
     joint_states = _joint_states(complete, model)
     controller_tf, cl_poles, notes = None, None, []
-    if observer is not None and feedback is not None and feedback.integral is not None:
+    if (observer is not None and feedback is not None
+            and not kind.capabilities.linear_realization):
+        notes.append(f'closed-loop analysis skipped: the {kind.name} observer has no linear '
+                     f'realization, so neither the closed-loop poles nor G_oc are defined')
+    elif observer is not None and feedback is not None and feedback.integral is not None:
         # Separation: the servo loop's poles (on the augmented model) and the observer's.
         cl_poles = np.concatenate([feedback.integral.achieved_poles, observer.achieved_poles])
         notes.append('integral action: no single observer-controller transfer function is '

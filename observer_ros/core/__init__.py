@@ -48,7 +48,7 @@ Designs
     :func:`design_kalman`, :func:`design_sampled_kalman`, :func:`design_feedback` and their
     results (:class:`ObserverDesign`, :class:`ReducedOrderDesign`, :class:`ChenDesign`,
     :class:`KalmanDesign`, :class:`FeedbackDesign`, :class:`ObserverRealization`);
-    :func:`full_order_gain`, :func:`full_order_realization`,
+    :func:`full_order_gain`, :func:`full_order_realization`, :func:`predictor_realization`,
     :func:`measured_first_transform`, :func:`reference_gain`.
 Observer-controller (the analysis in :mod:`observer_ros.core.loop_analysis`)
     :func:`controller_transfer_function`, :func:`diophantine_controller`,
@@ -60,8 +60,10 @@ Integral action
     :func:`design_integral`, :class:`IntegralDesign`, :func:`augmented_pair`,
     :class:`IntegralAction` (the servo law's integrator, with anti-windup).
 Observer types
-    :func:`observer_type`, :func:`observer_types`, :class:`ObserverType`, :func:`register`,
-    :class:`Argument` (what a type reads).
+    :func:`observer_type`, :func:`observer_types`, :class:`ObserverType`,
+    :class:`Capabilities`, :func:`register`, :class:`Argument` (what a type reads); each
+    type in its package under :mod:`observer_ros.core.observers`, found through the
+    entry-point group ``observer_ros.observer_types``.
 Estimators
     :func:`make_estimator`, :class:`StateEstimator` (the protocol), :class:`Estimator` (the
     constant-``G`` engine), :class:`TimeVaryingKalman`, :class:`Prediction`,
@@ -112,8 +114,8 @@ _EXPORTS = {
     'observer_ros.core.model': ('StateSpaceModel',),
     'observer_ros.core.discretize': ('zero_order_hold', 'van_loan', 'transition'),
     'observer_ros.core.arguments': ('Argument',),
-    'observer_ros.core.observers': ('ObserverType', 'observer_type', 'observer_types',
-                                    'register'),
+    'observer_ros.core.observers': ('Capabilities', 'ObserverType', 'make_estimator',
+                                    'observer_type', 'observer_types', 'register'),
     'observer_ros.core.analysis': (
         'RankReport', 'observability', 'controllability', 'observability_matrix',
         'controllability_matrix', 'pbh_lost_modes', 'require_observable',
@@ -124,13 +126,14 @@ _EXPORTS = {
     'observer_ros.core.placement': (
         'METHODS', 'PlacementResult', 'place', 'place_observer', 'placement_residual',
         'sort_poles'),
-    'observer_ros.core.design.common': ('ObserverDesign', 'ObserverRealization'),
-    'observer_ros.core.design.full_order': (
+    'observer_ros.core.design.common': ('ObserverDesign', 'ObserverRealization',
+                                        'predictor_realization'),
+    'observer_ros.core.observers.full_order.design': (
         'design_full_order', 'full_order_gain', 'full_order_realization'),
-    'observer_ros.core.design.reduced_order': (
+    'observer_ros.core.observers.reduced_order.design': (
         'ReducedOrderDesign', 'design_reduced_order', 'measured_first_transform'),
-    'observer_ros.core.design.chen': ('ChenDesign', 'design_chen'),
-    'observer_ros.core.design.kalman': (
+    'observer_ros.core.observers.chen.design': ('ChenDesign', 'design_chen'),
+    'observer_ros.core.observers.kalman.design': (
         'KalmanDesign', 'design_kalman', 'design_sampled_kalman'),
     'observer_ros.core.design.feedback': ('FeedbackDesign', 'design_feedback', 'reference_gain'),
     'observer_ros.core.design.integral': ('IntegralDesign', 'design_integral', 'augmented_pair'),
@@ -141,8 +144,8 @@ _EXPORTS = {
         'diophantine_controller', 'solve_diophantine'),
     'observer_ros.core.loop_analysis.closed_loop': ('closed_loop_matrix', 'closed_loop_poles'),
     'observer_ros.core.feedback_law': ('StateFeedbackLaw', 'IntegralAction'),
-    'observer_ros.core.estimators': ('Estimator', 'Prediction', 'StateEstimator',
-                                     'TimeVaryingKalman', 'make_estimator'),
+    'observer_ros.core.estimators': ('Estimator', 'Prediction', 'StateEstimator'),
+    'observer_ros.core.observers.kalman.time_varying': ('TimeVaryingKalman',),
     'observer_ros.core.streaming': ('StreamEstimator', 'ValueLimits'),
     'observer_ros.core.simulation': ('PlantSimulator',),
     'observer_ros.core.disturbances': ('Disturbance', 'DisturbanceModel', 'augment',

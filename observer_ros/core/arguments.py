@@ -38,6 +38,9 @@ DOUBLE, DOUBLE_ARRAY, STRING, STRING_ARRAY, INTEGER, BOOL = (
 #: discretization and the designs overflow double precision.
 ENTRY_LIMIT = 1e12
 
+#: Largest seed ``numpy.random.default_rng`` takes from a ROS integer parameter.
+SEED_MAX = 2 ** 63 - 1
+
 _NUMBERS = (int, float, np.integer, np.floating)
 
 
@@ -207,5 +210,5 @@ def matrix_text(text: str) -> str:
     return f'{text}, flat row-major (row after row).'
 
 
-__all__ = ['Argument', 'BOOL', 'DOUBLE', 'DOUBLE_ARRAY', 'ENTRY_LIMIT', 'INTEGER', 'STRING',
-           'STRING_ARRAY', 'array', 'matrix_text', 'number_text', 'seconds']
+__all__ = ['Argument', 'BOOL', 'DOUBLE', 'DOUBLE_ARRAY', 'ENTRY_LIMIT', 'INTEGER', 'SEED_MAX',
+           'STRING', 'STRING_ARRAY', 'array', 'matrix_text', 'number_text', 'seconds']

@@ -22,13 +22,13 @@ With ``observer.joint_names`` every published ``x_hat`` is also published on
 ``joint_states_hat`` as a ``sensor_msgs/JointState`` with the same stamp, its ``position``,
 ``velocity`` and ``effort`` filled from the states ``observer.joint_<field>_states`` choose.
 
-Also publishes ``innovation`` (``y - C x_hat_prior``) and, for a Kalman filter,
-``x_hat_covariance`` (``P``, n x n row-major), ``innovation_covariance`` (``S``, p x p) and
-``nis`` (``v^T S^-1 v``), each stamped like the ``x_hat`` it belongs to; its health
-(configuration, inputs, estimator: :mod:`observer_ros.ros.diagnostics`) on
-``/diagnostics``; offers ``~/reset`` (``std_srvs/Trigger``). With ``observer.publish_rate``
-it also publishes, at that rate on its clock, the estimate (and covariance) predicted to that
-time.
+Also publishes ``innovation`` (``y - C x_hat_prior``) and, for an observer type with a
+covariance (its capabilities say so: the Kalman filters), ``x_hat_covariance`` (``P``, n x n
+row-major), ``innovation_covariance`` (``S``, p x p) and ``nis`` (``v^T S^-1 v``), each
+stamped like the ``x_hat`` it belongs to; its health (configuration, inputs, estimator:
+:mod:`observer_ros.ros.diagnostics`) on ``/diagnostics``; offers ``~/reset``
+(``std_srvs/Trigger``). With ``observer.publish_rate`` it also publishes, at that rate on its
+clock, the estimate (and covariance) predicted to that time.
 """
 
 from collections import Counter
@@ -54,8 +54,8 @@ from observer_ros.ros.run import run_node
 #: How long a node-clock reading serves the clock tolerance check (see ``_clock_for``).
 CLOCK_REUSE_NS = 100_000_000
 
-#: Topics a Kalman filter adds to x_hat and the innovation.
-KALMAN_TOPICS = ('x_hat_covariance', 'innovation_covariance', 'nis')
+#: Topics an observer type with a covariance adds to x_hat and the innovation.
+COVARIANCE_TOPICS = ('x_hat_covariance', 'innovation_covariance', 'nis')
 
 #: Errors a per-interval design may raise on a sample (the sample is dropped and counted).
 STEP_ERRORS = (ObserverRosError, np.linalg.LinAlgError, ValueError, ArithmeticError)
@@ -74,8 +74,8 @@ class ObserverWiring:
         self.vet_system(system)
         preload_methods()  # no placement method may import a module on a callback path
         self.stream = system.make_stream()
-        kalman = system.observer.kind == 'kalman'
-        topics = ('y', 'u', 'x_hat', 'innovation') + (KALMAN_TOPICS if kalman else ())
+        covariance = system.kind.capabilities.covariance
+        topics = ('y', 'u', 'x_hat', 'innovation') + (COVARIANCE_TOPICS if covariance else ())
         inputs = system.model.n_inputs > 0  # without inputs (m = 0) no u is subscribed
         self.codecs = {topic: VectorCodec.for_topic(system, topic) for topic in topics}
         self.n_states, self.x_hat_codec = system.model.n_states, self.codecs['x_hat']
@@ -146,7 +146,7 @@ class ObserverWiring:
         try:
             system.make_estimator().try_intervals(intervals)
         except STEP_ERRORS as e:
-            raise ConfigError(_source(system), f'the observer cannot be sampled at the '
+            raise ConfigError(system.design_source, f'the observer cannot be sampled at the '
                               f'running intervals ({[dt / 1e9 for dt in intervals]} s): '
                               f'{e}') from e
 
@@ -344,14 +344,6 @@ class ObserverNode(ObserverWiring, ConfiguredNode):
     def __init__(self, node_name: str = 'observer', **kwargs) -> None:
         super().__init__(node_name, OBSERVER, **kwargs)
         self.build(self.system)
-
-
-def _source(system) -> str:
-    """Return the parameter an observer design comes from, for error messages."""
-    params = system.parameters
-    if params['observer.type'] == 'kalman':
-        return 'observer.process_noise'
-    return 'observer.gain' if params['observer.gain'] else 'observer.poles'
 
 
 def main(args=None) -> int:

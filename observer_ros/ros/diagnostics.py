@@ -159,7 +159,7 @@ class NodeHealth:
         self.innovations = deque(maxlen=window)
         self.nis = (NisWindow(window, system.model.n_outputs,
                               params['diagnostics.nis_confidence'])
-                    if estimator and system.observer_type == 'kalman' else None)
+                    if estimator and system.kind.capabilities.covariance else None)
         self.covariance = None
         self.publisher = DiagnosticsPublisher(node, self.checks)
 

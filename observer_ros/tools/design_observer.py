@@ -24,6 +24,7 @@ import yaml
 
 from observer_ros.app.report import design_summary, format_report
 from observer_ros.config import load_parameter_file, PARAMETER_SPECS, validate_parameters
+from observer_ros.config.names import parameter_for
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.signals import stops_on_signal
 
@@ -33,16 +34,14 @@ def designed_parameters(system) -> dict:
     params = {name: value for name, value in system.parameters.items()
               if name not in PARAMETER_SPECS or value != PARAMETER_SPECS[name].default}
     observer = system.observer
-    # A designed Chen L belongs to its own F (orthonormal T), not to the diagonal F that a
-    # given L is used with: the poles (and observer.chen_seed) reproduce that design.
-    designed_chen = (observer is not None and observer.kind == 'chen'
-                     and not system.parameters['observer.gain'])
-    if observer is not None and observer.kind != 'kalman' and not designed_chen:
-        params['observer.gain'] = np.ravel(observer.gain).tolist()
-        if observer.kind != 'chen':
-            params.pop('observer.poles', None)
-        params.pop('observer.error_tolerance', None)
-        params.pop('observer.error_time', None)
+    if observer is not None:  # the type says which arguments pin its design as it is
+        for argument, value in system.kind.pinned_arguments(
+                observer, system.observer_values()).items():
+            parameter = parameter_for('observer', argument)
+            if value is None:
+                params.pop(parameter, None)
+            else:
+                params[parameter] = value
     feedback = system.feedback
     if feedback is not None:
         params['feedback.gain'] = np.ravel(feedback.design.gain).tolist()

@@ -15,6 +15,7 @@
 """What every observer design returns, and the state-space form they share."""
 
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -31,7 +32,7 @@ class ObserverRealization:
     An observer as a linear system with inputs ``y`` and ``u`` and output ``x_hat``.
 
     ``xi' = A xi + B_y y + B_u u`` (or ``xi[k+1] = ...`` for a discrete model) and
-    ``x_hat = C xi + D_y y + D_u u``. Every observer type maps to this form, which the
+    ``x_hat = C xi + D_y y + D_u u``. Every linear observer type maps to this form, which the
     controller transfer function and the closed-loop analysis use.
 
     Attributes
@@ -69,7 +70,7 @@ class ObserverDesign:
     Attributes
     ----------
     kind : str
-        ``'full_order'``, ``'reduced_order'``, ``'chen'`` or ``'kalman'``.
+        The name of the observer type that made it (``observer.type``).
     model : StateSpaceModel
         The model designed for.
     gain : numpy.ndarray
@@ -82,16 +83,18 @@ class ObserverDesign:
         Algorithm that produced the gain (``'given'`` when the gain was supplied).
     residual : float
         Relative error of the verification (poles, or the Sylvester / Riccati residual).
-    realization : ObserverRealization
-        The observer as a system from ``(y, u)`` to ``x_hat``, in the model's coordinates.
+    realization : ObserverRealization or None
+        The observer as a system from ``(y, u)`` to ``x_hat``, in the model's coordinates;
+        None for a type without a linear realization (its capabilities say so), which the
+        closed-loop analysis then skips.
 
     Examples
     --------
     >>> import observer_ros.core as oc
     >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
     >>> design = oc.design_full_order(model, poles=[-8, -9])
-    >>> design.kind, design.order, design.achieved_poles.round(6).tolist()
-    ('full_order', 2, [(-9+0j), (-8+0j)])
+    >>> design.order, design.achieved_poles.round(6).tolist()
+    (2, [(-9+0j), (-8+0j)])
 
     """
 
@@ -102,12 +105,49 @@ class ObserverDesign:
     achieved_poles: np.ndarray
     method: str
     residual: float
-    realization: ObserverRealization
+    realization: Optional[ObserverRealization]
 
     @property
     def order(self) -> int:
-        """Number of observer states."""
+        """Number of observer states (``n`` for a design without a realization)."""
+        if self.realization is None:
+            return self.model.n_states
         return self.realization.a.shape[0]
+
+
+def predictor_realization(model: StateSpaceModel, gain: np.ndarray) -> ObserverRealization:
+    """
+    Observer ``x_hat' = A x_hat + B u + L (y - C x_hat - D u)``: ``A - L C``, ``L``, ``B - L D``.
+
+    The realization of a full-order observer of gain ``L``, and of a steady-state Kalman
+    filter in predictor form.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    gain : numpy.ndarray, shape (n, p)
+        ``L``.
+
+    Returns
+    -------
+    ObserverRealization
+        Of order ``n``, with ``x_hat = xi``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import observer_ros.core as oc
+    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> realization = oc.predictor_realization(model, np.array([[17.0], [72.0]]))
+    >>> print(realization.b_y.ravel(), realization.b_u.ravel())
+    [17. 72.] [0. 1.]
+
+    """
+    n_states = model.n_states
+    return ObserverRealization(
+        a=model.a - gain @ model.c, b_y=gain, b_u=model.b - gain @ model.d,
+        c=np.eye(n_states), d_y=np.zeros((n_states, model.n_outputs)),
+        d_u=np.zeros((n_states, model.n_inputs)))
 
 
 def check_given_gain_stable(error_matrix: np.ndarray, discrete: bool,

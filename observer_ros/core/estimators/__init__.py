@@ -13,71 +13,16 @@
 # limitations under the License.
 
 """
-Runtime estimators: the protocol, the constant-``G`` loop and the time-varying Kalman filter.
+Runtime estimators: the protocol and the constant-``G`` engine the observer types share.
 
 :class:`StateEstimator` is what the stream drives; :class:`Estimator` runs one matrix per
-sample interval from a step design (one per Luenberger type and the steady-state Kalman
-filter); :class:`TimeVaryingKalman` carries its covariance. The observer types
-(:mod:`observer_ros.core.observers`) say which one a design runs on.
+sample interval from a step design (each type's own, in its package under
+:mod:`observer_ros.core.observers`). A type with a filter of its own (the time-varying Kalman
+filter) implements :class:`StateEstimator` in its package;
+:func:`observer_ros.core.observers.make_estimator` builds the estimator of any design.
 """
 
-from observer_ros.core.design.common import ObserverDesign
 from observer_ros.core.estimators.base import Estimator, StepDesign, StepMatrices
-from observer_ros.core.estimators.chen import ChenStep
-from observer_ros.core.estimators.full_order import FullOrderStep
-from observer_ros.core.estimators.kalman import KalmanStep
 from observer_ros.core.estimators.protocol import Prediction, StateEstimator
-from observer_ros.core.estimators.reduced_order import ReducedOrderStep
-from observer_ros.core.estimators.time_varying_kalman import TimeVaryingKalman
 
-
-def make_estimator(design: ObserverDesign, initial_state=None, method: str = 'auto',
-                   interval_resolution_ns: int = 0, **options) -> StateEstimator:
-    """
-    Build the runtime estimator of an observer design, through its registered type.
-
-    Parameters
-    ----------
-    design : ObserverDesign
-        From any design function; its ``kind`` names the observer type.
-    initial_state : array_like, shape (n,), optional
-        Pins the first estimate (see :class:`Estimator`).
-    method : str
-        Placement method of the per-interval designs (pole-placed types).
-    interval_resolution_ns : int
-        Round intervals to multiples of this before designing them (0: exact).
-    **options
-        Further arguments of the type (``time_varying=True``, ``initial_covariance=...``
-        for ``kalman``).
-
-    Returns
-    -------
-    StateEstimator
-        The type's runtime estimator: an :class:`Estimator`, or a
-        :class:`TimeVaryingKalman` for ``kalman`` with ``time_varying=True``.
-
-    Raises
-    ------
-    ConfigError
-        ``type``: the design's kind is no registered observer type; or a bad option.
-
-    Examples
-    --------
-    >>> from observer_ros.core import design_kalman, StateSpaceModel
-    >>> model = StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
-    >>> design = design_kalman(model, [0.0, 1.0], [0.01])
-    >>> type(make_estimator(design)).__name__
-    'Estimator'
-    >>> type(make_estimator(design, time_varying=True)).__name__
-    'TimeVaryingKalman'
-
-    """
-    from observer_ros.core.observers import observer_type  # the types import this module
-    kind = observer_type(design.kind)
-    values = kind.values({'method': method, **options})
-    return kind.estimator(design, values, initial_state, interval_resolution_ns)
-
-
-__all__ = ['ChenStep', 'Estimator', 'FullOrderStep', 'KalmanStep', 'Prediction',
-           'ReducedOrderStep', 'StateEstimator', 'StepDesign', 'StepMatrices',
-           'TimeVaryingKalman', 'make_estimator']
+__all__ = ['Estimator', 'Prediction', 'StateEstimator', 'StepDesign', 'StepMatrices']

@@ -19,7 +19,7 @@ What every runtime estimator offers: the protocol :class:`StateEstimator`.
 node and the bag replay) drives any estimator through it. Two implementations exist: the
 constant-``G`` :class:`~observer_ros.core.estimators.base.Estimator` (one matrix per sample
 interval; every Luenberger type and the steady-state Kalman filter) and the stateful
-:class:`~observer_ros.core.estimators.time_varying_kalman.TimeVaryingKalman`, which carries
+:class:`~observer_ros.core.observers.kalman.time_varying.TimeVaryingKalman`, which carries
 its covariance. Optional capabilities (a batch path, a prepared steady step) have defaults
 here that say "not offered"; the stream asks before it uses them.
 """

@@ -13,15 +13,18 @@
 # limitations under the License.
 
 """
-The observer types, one module each, found through one registry.
+The observer types: one package each, found through the entry-point group of the types.
 
-A module declares an :class:`ObserverType`: its name, the arguments it reads (by their own
-names: ``poles``, ``gain``; the parameter schema offers each as ``observer.<name>``), its
-design function, its runtime estimator and the fields its report shows, and passes it to
-:func:`register`. The parameter schema, the validator, ``design_observer``, the report, the
-nodes and the bag tools find types with :func:`observer_type` and :func:`observer_types`; an
-unknown name is an error, never a fallback. The built-in types are registered when this
-package is imported: ``full_order``, ``reduced_order``, ``chen`` and ``kalman``.
+A type is a package (``observer_ros/core/observers/<type>/`` for the built-in ones, or any
+installed package) that declares an :class:`ObserverType`: its name, the arguments it reads
+(by their own names: ``poles``, ``gain``; the parameter schema offers each as
+``observer.<name>``), its design function, its runtime estimator, the fields its report
+shows and its :class:`Capabilities`. It is found through the Python entry-point group
+``observer_ros.observer_types`` (:data:`GROUP`), where the built-in types are registered
+too (``setup.py``). The parameter schema, the validator, ``design_observer``, the report,
+the nodes and the bag tools find types with :func:`observer_type` and
+:func:`observer_types` and ask their capabilities, never their names; an unknown name is an
+error, never a fallback.
 
 Examples
 --------
@@ -30,18 +33,23 @@ Examples
 ['full_order', 'reduced_order', 'chen', 'kalman']
 >>> observer_type('kalman').argument_names()[:2]
 ('process_noise', 'measurement_noise')
+>>> observer_type('kalman').capabilities.covariance
+True
 
 """
 
 from dataclasses import dataclass
-import importlib
 from typing import Any, Callable, Mapping, Optional
 
 import numpy as np
 
 from observer_ros.core.design.common import ObserverDesign
-from observer_ros.core.errors import ConfigError
 from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.observers import registry
+from observer_ros.core.observers.registry import GROUP, PluginLoadWarning
+
+#: Priority of a type that gives none (the built-in ones are above it, so come first).
+DEFAULT_PRIORITY = 100
 
 
 @dataclass(frozen=True)
@@ -54,6 +62,51 @@ class ReportItem:
 
 
 @dataclass(frozen=True)
+class Capabilities:
+    """
+    What an observer type can do: the nodes, tools and reports ask these, not its name.
+
+    The defaults are the cautious answers for a type that says nothing.
+
+    Attributes
+    ----------
+    covariance : bool
+        Its estimator carries a covariance: the observer node publishes
+        ``x_hat_covariance``, ``innovation_covariance`` and ``nis``, and the diagnostics
+        test the NIS against its chi-square band.
+    needs_every_output : bool
+        Each update needs every output of the model (no update from some of them).
+    linear_realization : bool
+        Its designs carry an :class:`~observer_ros.core.design.common.ObserverRealization`
+        (the observer as a linear system from ``y`` and ``u`` to ``x_hat``): the closed-loop
+        analysis (closed-loop poles, ``G_oc``) is made from it; without one it is skipped
+        with a note.
+    several_sources : bool
+        It can take measurements from several sources, each with some of the outputs.
+    disturbance_arguments : tuple of str
+        Its arguments that only apply to a model with ``model.disturbances`` (refused
+        without), which the type itself consumes from the disturbance transform it is
+        designed with.
+
+    Examples
+    --------
+    >>> Capabilities().linear_realization
+    False
+
+    """
+
+    covariance: bool = False
+    needs_every_output: bool = True
+    linear_realization: bool = False
+    several_sources: bool = False
+    disturbance_arguments: tuple = ()
+
+
+def _no_report(design: ObserverDesign) -> tuple:
+    return ()
+
+
+@dataclass(frozen=True)
 class ObserverType:
     """
     What one observer type is.
@@ -61,39 +114,57 @@ class ObserverType:
     Attributes
     ----------
     name : str
-        ``observer.type`` of the type.
+        ``observer.type`` of the type (and the name of its entry point).
     summary : str
         One line for the schema's description.
     arguments : tuple of Argument
         The arguments its design and estimator read, by their own names.
     design : callable
-        ``design(model, values) -> ObserverDesign or None`` with ``values`` the checked
-        arguments by name; None when the values configure no observer (no poles, gain or
-        noise given). Raises ConfigError or DesignError naming its arguments.
+        ``design(model, values, disturbance) -> ObserverDesign or None`` with ``values`` the
+        checked arguments by name and ``disturbance`` the
+        :class:`~observer_ros.core.disturbances.DisturbanceModel` that augmented ``model``
+        (None without ``model.disturbances``); None when the values configure no observer
+        (no poles, gain or noise given). Raises ConfigError or DesignError naming its
+        arguments.
     estimator : callable
         ``estimator(design, values, initial_state, interval_resolution_ns)`` returns the
         runtime :class:`~observer_ros.core.estimators.StateEstimator`.
     report : callable
         ``report(design) -> sequence of ReportItem``: the type's own matrices.
     vet : callable, optional
-        ``vet(model, values)`` raises for values the type cannot take together with others
-        (run before ``design``).
+        ``vet(model, given)`` raises for values the type cannot take together with others
+        (run before ``design``; ``given`` holds the values as given, by argument name).
+    capabilities : Capabilities
+    priority : int
+        Order of the registry: higher first, then by name (:data:`DEFAULT_PRIORITY`).
+    charged : callable, optional
+        ``charged(given) -> argument name``: the argument a failed design is charged to
+        when its error names none (default: the first argument).
+    pinned : callable, optional
+        ``pinned(design, values) -> {argument: value or None}``: the arguments that pin the
+        design as it is (``design_observer --write``); None removes one. Default: none.
 
     Examples
     --------
     >>> kind = observer_type('full_order')
     >>> kind.values({'poles': ['-4', '-5']})['method']
     'auto'
+    >>> kind.charged_argument({'gain': [1.0, 2.0]})
+    'gain'
 
     """
 
     name: str
     summary: str
     arguments: tuple
-    design: Callable[[StateSpaceModel, Mapping[str, Any]], Optional[ObserverDesign]]
+    design: Callable[..., Optional[ObserverDesign]]
     estimator: Callable
-    report: Callable[[ObserverDesign], tuple] = lambda design: ()
+    report: Callable[[ObserverDesign], tuple] = _no_report
     vet: Optional[Callable[[StateSpaceModel, Mapping[str, Any]], None]] = None
+    capabilities: Capabilities = Capabilities()
+    priority: int = DEFAULT_PRIORITY
+    charged: Optional[Callable[[Mapping[str, Any]], str]] = None
+    pinned: Optional[Callable[[ObserverDesign, Mapping[str, Any]], dict]] = None
 
     def argument_names(self) -> tuple:
         """Return the names of the type's arguments, in declaration order."""
@@ -112,16 +183,23 @@ class ObserverType:
         return {argument.name: argument.coerce(given.get(argument.name, argument.default))
                 for argument in self.arguments}
 
+    def charged_argument(self, given: Mapping[str, Any]) -> str:
+        """Return the argument a failed design of ``given`` is charged to (see ``charged``)."""
+        if self.charged is not None:
+            return self.charged(given)
+        return self.arguments[0].name if self.arguments else 'type'
 
-_TYPES: dict = {}
-_ARGUMENTS: dict = {}
+    def pinned_arguments(self, design: ObserverDesign, values: Mapping[str, Any]) -> dict:
+        """Return the arguments that pin ``design`` (see ``pinned``; empty by default)."""
+        return {} if self.pinned is None else dict(self.pinned(design, values))
 
 
 def register(kind: ObserverType) -> ObserverType:
     """
-    Add an observer type to the registry and return it.
+    Add an observer type to the registry and return it (for a type made at run time).
 
-    An argument name shared by several types (``poles``, ``gain``) must be the same
+    Installed types are found through the entry-point group :data:`GROUP` instead. An
+    argument name shared by several types (``poles``, ``gain``) must be the same
     :class:`Argument` everywhere, so that the schema has one parameter for it.
 
     Parameters
@@ -131,7 +209,7 @@ def register(kind: ObserverType) -> ObserverType:
     Returns
     -------
     ObserverType
-        ``kind`` itself, so that a module can write ``TYPE = register(ObserverType(...))``.
+        ``kind`` itself.
 
     Raises
     ------
@@ -146,16 +224,8 @@ def register(kind: ObserverType) -> ObserverType:
     ValueError: observer type 'chen' is registered already
 
     """
-    if kind.name in _TYPES:
-        raise ValueError(f'observer type {kind.name!r} is registered already')
-    for argument in kind.arguments:
-        known = _ARGUMENTS.get(argument.name)
-        if known is not None and known != argument:
-            raise ValueError(f'observer type {kind.name!r}: argument {argument.name!r} '
-                             f'differs from the one another type declares')
-    for argument in kind.arguments:
-        _ARGUMENTS[argument.name] = argument
-    _TYPES[kind.name] = kind
+    registry.load()
+    registry.add(kind)
     return kind
 
 
@@ -174,7 +244,8 @@ def observer_type(name: str) -> ObserverType:
     Raises
     ------
     ConfigError
-        ``type``: no such type (the message lists the registered ones).
+        ``type``: no such type (the message lists the registered ones), or its plug-in
+        failed to load (the message names the entry point and the error).
 
     Examples
     --------
@@ -185,15 +256,13 @@ def observer_type(name: str) -> ObserverType:
     type | expected one of full_order
 
     """
-    kind = _TYPES.get(name)
-    if kind is None:
-        raise ConfigError('type', f'expected one of {", ".join(_TYPES)}, got {name!r}')
-    return kind
+    registry.load()
+    return registry.find(name)
 
 
 def observer_types() -> tuple:
     """
-    Return the registered types, in registration order.
+    Return the registered types, in registry order (priority, then name).
 
     Returns
     -------
@@ -205,12 +274,87 @@ def observer_types() -> tuple:
     'full_order'
 
     """
-    return tuple(_TYPES.values())
+    registry.load()
+    return registry.types()
+
+
+def observer_type_names() -> tuple:
+    """Return the names ``observer.type`` accepts: the registered types and failed plug-ins."""
+    registry.load()
+    return registry.types_and_failures()
 
 
 def observer_arguments() -> tuple:
     """Return every argument of every registered type, each once, in declaration order."""
-    return tuple(_ARGUMENTS.values())
+    registry.load()
+    return registry.arguments()
+
+
+def disturbance_arguments() -> tuple:
+    """
+    Return the arguments that apply only with ``model.disturbances``, over every type.
+
+    Examples
+    --------
+    >>> disturbance_arguments()
+    ('disturbance_noise',)
+
+    """
+    names = (name for kind in observer_types()
+             for name in kind.capabilities.disturbance_arguments)
+    return tuple(dict.fromkeys(names))
+
+
+def plugin_failures() -> dict:
+    """Return ``{type name: why its entry point failed to load}`` (empty when all loaded)."""
+    registry.load()
+    return registry.failures()
+
+
+def make_estimator(design: ObserverDesign, initial_state=None, method: str = 'auto',
+                   interval_resolution_ns: int = 0, **options):
+    """
+    Build the runtime estimator of an observer design, through its registered type.
+
+    Parameters
+    ----------
+    design : ObserverDesign
+        From any design function; its ``kind`` names the observer type.
+    initial_state : array_like, shape (n,), optional
+        Pins the first estimate (see :class:`~observer_ros.core.estimators.Estimator`).
+    method : str
+        Placement method of the per-interval designs (pole-placed types).
+    interval_resolution_ns : int
+        Round intervals to multiples of this before designing them (0: exact).
+    **options
+        Further arguments of the type (``time_varying=True``, ``initial_covariance=...``
+        for ``kalman``).
+
+    Returns
+    -------
+    StateEstimator
+        The type's runtime estimator: an :class:`~observer_ros.core.estimators.Estimator`,
+        or a :class:`TimeVaryingKalman` for ``kalman`` with ``time_varying=True``.
+
+    Raises
+    ------
+    ConfigError
+        ``type``: the design's kind is no registered observer type; or a bad option.
+
+    Examples
+    --------
+    >>> from observer_ros.core import design_kalman, StateSpaceModel
+    >>> model = StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> design = design_kalman(model, [0.0, 1.0], [0.01])
+    >>> type(make_estimator(design)).__name__
+    'Estimator'
+    >>> type(make_estimator(design, time_varying=True)).__name__
+    'TimeVaryingKalman'
+
+    """
+    kind = observer_type(design.kind)
+    values = kind.values({'method': method, **options})
+    return kind.estimator(design, values, initial_state, interval_resolution_ns)
 
 
 def rows(matrix) -> list:
@@ -218,10 +362,7 @@ def rows(matrix) -> list:
     return np.atleast_2d(np.asarray(matrix, dtype=float)).tolist()
 
 
-# The built-in types register themselves, in this order (imported last: they use the names
-# above).
-for _module in ('full_order', 'reduced_order', 'chen', 'kalman'):
-    importlib.import_module(f'{__name__}.{_module}')
-
-__all__ = ['ObserverType', 'ReportItem', 'observer_arguments', 'observer_type',
-           'observer_types', 'register', 'rows']
+__all__ = ['Capabilities', 'DEFAULT_PRIORITY', 'GROUP', 'ObserverType', 'PluginLoadWarning',
+           'ReportItem', 'disturbance_arguments', 'make_estimator', 'observer_arguments',
+           'observer_type', 'observer_type_names', 'observer_types', 'plugin_failures',
+           'register', 'rows']

@@ -12,7 +12,7 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""Arguments several observer types share, and the poles they are designed for."""
+"""What several observer types share: arguments, the poles they are designed for, a step form."""
 
 import math
 from typing import Mapping, Optional
@@ -23,6 +23,7 @@ from observer_ros.core.analysis import format_modes
 from observer_ros.core.arguments import (
     Argument, array, DOUBLE, matrix_text, seconds, STRING, STRING_ARRAY)
 from observer_ros.core.errors import ConfigError
+from observer_ros.core.estimators.base import assemble_step, StepMatrices
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.placement import METHODS
 from observer_ros.core.poles import parse_poles, poles_meeting_error_spec, slowest_allowed_pole
@@ -136,3 +137,26 @@ def poles_or_gain(model: StateSpaceModel, values: Mapping, count: int, kind: str
         raise ConfigError('poles', f'expected {count} poles for a {kind} observer of this '
                           f'model, got {poles.size}')
     return poles, gain
+
+
+def charged_poles_or_gain(given: Mapping) -> str:
+    """Return the argument a failed pole-placed design is charged to: ``gain`` or ``poles``."""
+    return 'gain' if given.get('gain') else 'poles'
+
+
+def pinned_gain(design, values: Mapping) -> dict:
+    """
+    Return the arguments that pin a pole-placed design: its gain, instead of the poles.
+
+    The error specification (``error_tolerance``, ``error_time``) is dropped with them.
+    """
+    return {'gain': np.ravel(design.gain).tolist(), 'poles': None, 'error_tolerance': None,
+            'error_time': None}
+
+
+def current_form(ad: np.ndarray, bd: np.ndarray, c: np.ndarray, filter_gain: np.ndarray,
+                 poles: np.ndarray, covariance=None, innovation_covariance=None) -> StepMatrices:
+    """Step matrices of ``x_hat = (I - M C)(Ad x_hat + Bd u) + M y``."""
+    correction = np.eye(ad.shape[0]) - filter_gain @ c
+    return assemble_step(correction @ ad, correction @ bd, filter_gain, c, ad, bd, poles,
+                         covariance, innovation_covariance)

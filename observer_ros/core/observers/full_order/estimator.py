@@ -24,16 +24,8 @@ import numpy as np
 
 from observer_ros.core.design.common import ObserverDesign
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.estimators.base import (
-    assemble_step, place_sampled, StepDesign, StepMatrices)
-
-
-def current_form(ad: np.ndarray, bd: np.ndarray, c: np.ndarray, filter_gain: np.ndarray,
-                 poles: np.ndarray, covariance=None, innovation_covariance=None) -> StepMatrices:
-    """Step matrices of ``x_hat = (I - M C)(Ad x_hat + Bd u) + M y``."""
-    correction = np.eye(ad.shape[0]) - filter_gain @ c
-    return assemble_step(correction @ ad, correction @ bd, filter_gain, c, ad, bd, poles,
-                         covariance, innovation_covariance)
+from observer_ros.core.estimators.base import place_sampled, StepDesign, StepMatrices
+from observer_ros.core.observers.common import current_form
 
 
 class FullOrderStep(StepDesign):
@@ -43,7 +35,7 @@ class FullOrderStep(StepDesign):
     Parameters
     ----------
     design : ObserverDesign
-        From :func:`observer_ros.core.design.full_order.design_full_order`. Its requested
+        From :func:`observer_ros.core.observers.full_order.design.design_full_order`. Its requested
         poles (those of ``A - L C`` for a given gain; s-plane for a continuous model) are
         placed as ``exp(lambda dt)`` for every interval; for a discrete model with a given
         gain ``L`` the filter gain is ``A^-1 L``.
@@ -65,7 +57,7 @@ class FullOrderStep(StepDesign):
             except np.linalg.LinAlgError as e:
                 raise ConfigError(
                     'gain', 'a discrete model with a singular A cannot run a given '
-                    'predictor gain in current-estimator form; give observer.poles') from e
+                    'predictor gain in current-estimator form; give poles') from e
 
     def design_step(self, ad, bd, dt) -> StepMatrices:
         """Place ``eig((I - M C) Ad)`` at the discrete poles and assemble the step."""

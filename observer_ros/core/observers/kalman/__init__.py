@@ -16,25 +16,30 @@
 Observer type ``kalman``: the Kalman filter, steady-state or time-varying.
 
 Design: the steady-state gain from the Riccati equations
-(:func:`~observer_ros.core.design.kalman.design_kalman`), which the report, the closed-loop
-analysis and ``controller_tf`` use. Runtime: with ``time_varying`` false (the default) the
-constant-``G`` :class:`~observer_ros.core.estimators.kalman.KalmanStep` (the DARE solved for
-each interval); with ``time_varying`` true the
-:class:`~observer_ros.core.estimators.time_varying_kalman.TimeVaryingKalman`, which
-propagates its covariance over each actual interval from ``initial_covariance``.
+(:func:`~observer_ros.core.observers.kalman.design.design_kalman`), which the report, the
+closed-loop analysis and ``controller_tf`` use. Runtime: with ``time_varying`` false (the
+default) the constant-``G`` :class:`~observer_ros.core.observers.kalman.estimator.KalmanStep`
+(the DARE solved for each interval); with ``time_varying`` true the
+:class:`~observer_ros.core.observers.kalman.time_varying.TimeVaryingKalman`, which
+propagates its covariance over each actual interval from ``initial_covariance``. With
+``model.disturbances`` the filter takes the process noise of the disturbance states from
+``disturbance_noise`` (``process_noise`` then covers the plant states only).
 """
 
 import numpy as np
 
 from observer_ros.core.arguments import Argument, array, BOOL
-from observer_ros.core.design.kalman import design_kalman
+from observer_ros.core.disturbances import augmented_noise
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.estimators import Estimator
-from observer_ros.core.estimators.kalman import KalmanStep
-from observer_ros.core.estimators.time_varying_kalman import TimeVaryingKalman
+from observer_ros.core.estimators.base import Estimator
 from observer_ros.core.flat_matrices import covariance_from_flat
-from observer_ros.core.observers import ObserverType, register, ReportItem
+from observer_ros.core.observers import Capabilities, ObserverType, ReportItem
 from observer_ros.core.observers.common import FORM
+from observer_ros.core.observers.kalman.design import design_kalman
+from observer_ros.core.observers.kalman.estimator import KalmanStep
+from observer_ros.core.observers.kalman.time_varying import TimeVaryingKalman
+
+NAME = 'kalman'
 
 PROCESS_NOISE = array('process_noise', 'Kalman Q: n diagonal values or n x n row-major. '
                       'Continuous model: intensity (discretized per interval); discrete model: '
@@ -56,16 +61,40 @@ INITIAL_COVARIANCE = array('initial_covariance', 'Time-varying Kalman: P0, n dia
                            'model.disturbances.', tunable=True)
 
 
-def vet(model, given):
+def _vet(model, given):
     """Refuse a gain or poles with a Kalman filter (its gain comes from the noises)."""
     if given.get('gain') or given.get('poles'):
         raise ConfigError('gain', 'a Kalman filter takes its gain from process_noise and '
                           'measurement_noise; leave gain and poles empty')
 
 
-def design(model, values):
+def augmented_process_noise(model, values, disturbance) -> list:
+    """
+    Return ``Q`` of the augmented model: ``process_noise`` and ``disturbance_noise``.
+
+    Raises
+    ------
+    ConfigError
+        ``disturbance_noise`` missing or of the wrong count; ``process_noise`` not a
+        covariance of the plant states.
+
+    """
+    if not values['disturbance_noise']:
+        states = list(model.state_names[disturbance.plant.n_states:])
+        raise ConfigError('disturbance_noise', f'expected '
+                          f'{disturbance.n_disturbance_states} values (the process noise of '
+                          f'the disturbance states {states}), got none')
+    plant_q = covariance_from_flat('process_noise', values['process_noise'],
+                                   disturbance.plant.n_states)
+    return augmented_noise(plant_q, values['disturbance_noise'],
+                           disturbance.n_disturbance_states).ravel().tolist()
+
+
+def _design(model, values, disturbance=None):
     """Return the steady-state Kalman design of ``Q`` and ``R`` (None when neither given)."""
     q, r = values['process_noise'], values['measurement_noise']
+    if disturbance is not None and q:
+        q = augmented_process_noise(model, values, disturbance)
     if not q and not r:
         return None
     if not q or not r:
@@ -79,7 +108,7 @@ def design(model, values):
     return design_kalman(model, q, r)
 
 
-def estimator(design, values, initial_state=None, interval_resolution_ns=0):
+def _estimator(design, values, initial_state=None, interval_resolution_ns=0):
     """Return the steady-state (constant-``G``) or the time-varying filter."""
     if values['time_varying']:
         p0 = values['initial_covariance'] or None
@@ -91,7 +120,7 @@ def estimator(design, values, initial_state=None, interval_resolution_ns=0):
                      interval_resolution_ns=interval_resolution_ns)
 
 
-def report(design):
+def _report(design):
     """Return the Riccati solution and, for a discrete model, the filter gain ``M``."""
     items = [ReportItem('covariance', 'P', design.covariance)]
     if design.filter_gain is not None:
@@ -99,8 +128,16 @@ def report(design):
     return tuple(items)
 
 
-TYPE = register(ObserverType(
-    'kalman', 'Kalman filter (steady-state, or time-varying with observer.time_varying)',
+def _charged(given):
+    """Charge a failed design to ``process_noise`` (the noises make the gain)."""
+    return 'process_noise'
+
+
+TYPE = ObserverType(
+    NAME, 'Kalman filter (steady-state, or time-varying with observer.time_varying)',
     (PROCESS_NOISE, MEASUREMENT_NOISE, DISTURBANCE_NOISE, TIME_VARYING, INITIAL_COVARIANCE,
-     FORM), design,
-    estimator, report, vet))
+     FORM), design=_design, estimator=_estimator, report=_report, vet=_vet,
+    capabilities=Capabilities(covariance=True, needs_every_output=False,
+                              linear_realization=True, several_sources=False,
+                              disturbance_arguments=('disturbance_noise',)),
+    priority=200, charged=_charged)

@@ -33,8 +33,7 @@ from typing import Optional
 import numpy as np
 import scipy.linalg
 
-from observer_ros.core.design.common import ObserverDesign
-from observer_ros.core.design.full_order import full_order_realization
+from observer_ros.core.design.common import ObserverDesign, predictor_realization
 from observer_ros.core.discretize import van_loan, zero_order_hold
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.flat_matrices import covariance_from_flat
@@ -102,7 +101,7 @@ def noise_matrices(model: StateSpaceModel, process_noise, measurement_noise):
     Examples
     --------
     >>> import observer_ros.core as oc
-    >>> from observer_ros.core.design.kalman import noise_matrices
+    >>> from observer_ros.core.observers.kalman.design import noise_matrices
     >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
     >>> q, r = noise_matrices(model, [1, 2], [0.5])
     >>> q.tolist(), r.tolist()
@@ -169,7 +168,7 @@ def discrete_kalman(model: StateSpaceModel, q: np.ndarray, r: np.ndarray,
     --------
     >>> import numpy as np
     >>> import observer_ros.core as oc
-    >>> from observer_ros.core.design.kalman import discrete_kalman
+    >>> from observer_ros.core.observers.kalman.design import discrete_kalman
     >>> model = oc.StateSpaceModel.from_matrices([[0.9]], [[1]], [[1]], dt=0.1)
     >>> design = discrete_kalman(model, np.array([[1.0]]), np.array([[1.0]]))
     >>> round(float(design.filter_gain[0, 0]), 6)  # P = 1.483925 solves P^2 - 0.81 P - 1 = 0
@@ -187,7 +186,7 @@ def discrete_kalman(model: StateSpaceModel, q: np.ndarray, r: np.ndarray,
             f'modulus {np.abs(poles).max():.6g}, Riccati residual {residual:.2g})')
     return KalmanDesign(
         kind='kalman', model=model, gain=gain, requested_poles=poles, achieved_poles=poles,
-        method='dare', residual=residual, realization=full_order_realization(model, gain),
+        method='dare', residual=residual, realization=predictor_realization(model, gain),
         filter_gain=filter_gain, covariance=covariance,
         filtered_covariance=0.5 * (filtered + filtered.T), process_noise=q,
         measurement_noise=r)
@@ -248,7 +247,7 @@ def design_kalman(model: StateSpaceModel, process_noise, measurement_noise) -> K
             f'{poles.real.max():.6g}, Riccati residual {residual:.2g})')
     return KalmanDesign(
         kind='kalman', model=model, gain=gain, requested_poles=poles, achieved_poles=poles,
-        method='care', residual=residual, realization=full_order_realization(model, gain),
+        method='care', residual=residual, realization=predictor_realization(model, gain),
         filter_gain=None, covariance=covariance, filtered_covariance=None,
         process_noise=q, measurement_noise=r)
 

@@ -113,7 +113,7 @@ def real_block_matrix(poles) -> np.ndarray:
 
     Examples
     --------
-    >>> from observer_ros.core.design.chen import real_block_matrix
+    >>> from observer_ros.core.observers.chen.design import real_block_matrix
     >>> print(real_block_matrix([-1 + 2j, -1 - 2j, -3]))
     [[-3.  0.  0.]
      [ 0. -1.  2.]

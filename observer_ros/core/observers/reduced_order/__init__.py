@@ -15,16 +15,20 @@
 """
 Observer type ``reduced_order``: the minimum-order (Ogata/Luenberger) observer of order n - p.
 
-Runtime: :class:`~observer_ros.core.estimators.reduced_order.ReducedOrderStep`; the estimate
-agrees with every measurement (``C x_hat = y``).
+Design: :mod:`.design` (the measured-first transform and the observer of the unmeasured
+part). Runtime: :class:`~observer_ros.core.observers.reduced_order.estimator.ReducedOrderStep`;
+the estimate agrees with every measurement (``C x_hat = y``), so each update needs them all.
 """
 
 from observer_ros.core.arguments import Argument, STRING
-from observer_ros.core.design.reduced_order import COORDINATES, design_reduced_order
-from observer_ros.core.estimators import Estimator
-from observer_ros.core.estimators.reduced_order import ReducedOrderStep
-from observer_ros.core.observers import ObserverType, register, ReportItem
-from observer_ros.core.observers.common import POLE_ARGUMENTS, poles_or_gain
+from observer_ros.core.estimators.base import Estimator
+from observer_ros.core.observers import Capabilities, ObserverType, ReportItem
+from observer_ros.core.observers.common import (
+    charged_poles_or_gain, pinned_gain, POLE_ARGUMENTS, poles_or_gain)
+from observer_ros.core.observers.reduced_order.design import COORDINATES, design_reduced_order
+from observer_ros.core.observers.reduced_order.estimator import ReducedOrderStep
+
+NAME = 'reduced_order'
 
 COORDINATES_ARGUMENT = Argument(
     'coordinates', STRING, 'orthonormal',
@@ -32,23 +36,23 @@ COORDINATES_ARGUMENT = Argument(
     'observability (the observability matrix, one output).', choices=COORDINATES)
 
 
-def design(model, values):
+def _design(model, values, disturbance=None):
     """Design from ``poles`` (or the error specification) or check a given ``gain``."""
     count = model.n_states - model.n_outputs
-    poles, gain = poles_or_gain(model, values, count, 'reduced_order')
+    poles, gain = poles_or_gain(model, values, count, NAME)
     if poles is None and gain is None:
         return None
     return design_reduced_order(model, None if gain is not None else poles, gain,
                                 values['coordinates'], values['method'])
 
 
-def estimator(design, values, initial_state=None, interval_resolution_ns=0):
+def _estimator(design, values, initial_state=None, interval_resolution_ns=0):
     """Return the constant-``G`` estimator of a reduced-order design."""
     return Estimator(ReducedOrderStep(design, values['method']), initial_state,
                      interval_resolution_ns=interval_resolution_ns)
 
 
-def report(design):
+def _report(design):
     """Return the measured-first transform and the observer's matrices."""
     return (ReportItem('transform', 'Q (w = Q x)', design.transform),
             ReportItem('a_hat', 'Ahat = Abb - L Aab', design.a_hat),
@@ -58,6 +62,10 @@ def report(design):
             ReportItem('d_hat', 'Dhat', design.d_hat))
 
 
-TYPE = register(ObserverType(
-    'reduced_order', 'reduced-order observer of order n - p (Ogata)',
-    POLE_ARGUMENTS + (COORDINATES_ARGUMENT,), design, estimator, report))
+TYPE = ObserverType(
+    NAME, 'reduced-order observer of order n - p (Ogata)',
+    POLE_ARGUMENTS + (COORDINATES_ARGUMENT,), design=_design, estimator=_estimator,
+    report=_report,
+    capabilities=Capabilities(covariance=False, needs_every_output=True,
+                              linear_realization=True, several_sources=False),
+    priority=400, charged=charged_poles_or_gain, pinned=pinned_gain)

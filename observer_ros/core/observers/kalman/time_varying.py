@@ -26,7 +26,8 @@ model uses its own ``A``, ``B``, ``Q`` once per sample):
 
 The first sample is an update of the prior ``(x0, P0)``: ``x0`` is ``initial_state`` (zero
 when not given) and ``P0`` the initial covariance. At a fixed rate ``P`` and ``K`` converge to
-the steady-state filter's (:func:`~observer_ros.core.design.kalman.design_sampled_kalman`).
+the steady-state filter's
+(:func:`~observer_ros.core.observers.kalman.design.design_sampled_kalman`).
 
 References
 ----------

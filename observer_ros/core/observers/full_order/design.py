@@ -19,43 +19,15 @@ import numpy as np
 
 from observer_ros.core.analysis import require_observable
 from observer_ros.core.design.common import (
-    check_given_gain_stable, ObserverDesign, ObserverRealization, require_stable_poles)
+    check_given_gain_stable, ObserverDesign, predictor_realization, require_stable_poles)
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.flat_matrices import matrix_from_flat
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.placement import place_observer
 
 
-def full_order_realization(model: StateSpaceModel, gain: np.ndarray) -> ObserverRealization:
-    """
-    Observer with state ``x_hat``: ``A - L C``, inputs ``L`` (y) and ``B - L D`` (u).
-
-    Parameters
-    ----------
-    model : StateSpaceModel
-    gain : numpy.ndarray, shape (n, p)
-        ``L``.
-
-    Returns
-    -------
-    ObserverRealization
-        Of order ``n``, with ``x_hat = xi``.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> import observer_ros.core as oc
-    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
-    >>> realization = oc.full_order_realization(model, np.array([[17.0], [72.0]]))
-    >>> print(realization.b_y.ravel(), realization.b_u.ravel())
-    [17. 72.] [0. 1.]
-
-    """
-    n_states = model.n_states
-    return ObserverRealization(
-        a=model.a - gain @ model.c, b_y=gain, b_u=model.b - gain @ model.d,
-        c=np.eye(n_states), d_y=np.zeros((n_states, model.n_outputs)),
-        d_u=np.zeros((n_states, model.n_inputs)))
+#: The full-order observer is the predictor-form realization of its gain.
+full_order_realization = predictor_realization
 
 
 def design_full_order(model: StateSpaceModel, poles=None, gain=None,
@@ -112,7 +84,7 @@ def design_full_order(model: StateSpaceModel, poles=None, gain=None,
         return ObserverDesign(
             kind='full_order', model=model, gain=gain, requested_poles=achieved,
             achieved_poles=achieved, method='given', residual=0.0,
-            realization=full_order_realization(model, gain))
+            realization=predictor_realization(model, gain))
     if poles is None:
         raise ConfigError('poles', 'expected the observer poles or a gain, got neither')
     poles = np.asarray(poles, dtype=complex)
@@ -123,7 +95,7 @@ def design_full_order(model: StateSpaceModel, poles=None, gain=None,
         kind='full_order', model=model, gain=result.gain,
         requested_poles=result.requested_poles, achieved_poles=result.achieved_poles,
         method=result.method, residual=result.residual,
-        realization=full_order_realization(model, result.gain))
+        realization=predictor_realization(model, result.gain))
 
 
 def full_order_gain(model: StateSpaceModel, poles, method: str = 'auto') -> np.ndarray:

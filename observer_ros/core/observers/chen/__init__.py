@@ -16,19 +16,22 @@
 Observer type ``chen``: Chen's reduced-order observer from the Sylvester equation.
 
 ``T A - F T = L C`` with ``eig(F)`` the poles; ``L`` given or drawn (``chen_seed``).
-Runtime: :class:`~observer_ros.core.estimators.chen.ChenStep`.
+Design: :mod:`.design`. Runtime: :class:`~observer_ros.core.observers.chen.estimator.ChenStep`;
+like every reduced-order observer, each update needs every output.
 """
 
-from observer_ros.core.arguments import Argument, INTEGER
-from observer_ros.core.design.chen import design_chen
-from observer_ros.core.errors import ConfigError
-from observer_ros.core.estimators import Estimator
-from observer_ros.core.estimators.chen import ChenStep
-from observer_ros.core.observers import ObserverType, register, ReportItem
-from observer_ros.core.observers.common import POLE_ARGUMENTS, requested_poles
+import numpy as np
 
-#: Largest seed ``numpy.random.default_rng`` takes from a ROS integer parameter.
-SEED_MAX = 2 ** 63 - 1
+from observer_ros.core.arguments import Argument, INTEGER, SEED_MAX
+from observer_ros.core.errors import ConfigError
+from observer_ros.core.estimators.base import Estimator
+from observer_ros.core.observers import Capabilities, ObserverType, ReportItem
+from observer_ros.core.observers.chen.design import design_chen
+from observer_ros.core.observers.chen.estimator import ChenStep
+from observer_ros.core.observers.common import (
+    charged_poles_or_gain, POLE_ARGUMENTS, requested_poles)
+
+NAME = 'chen'
 
 SEED = Argument('chen_seed', INTEGER, 0,
                 'Chen, several outputs, observer.gain empty: seed of the candidate choices of '
@@ -37,7 +40,7 @@ SEED = Argument('chen_seed', INTEGER, 0,
                 tunable=True, low=0, high=SEED_MAX, unit='a seed')
 
 
-def design(model, values):
+def _design(model, values, disturbance=None):
     """Design from ``poles`` (the eigenvalues of ``F``) and ``gain`` or a drawn ``L``."""
     count = model.n_states - model.n_outputs
     poles = requested_poles(model, values, count)
@@ -50,18 +53,35 @@ def design(model, values):
     return design_chen(model, poles, gain, values['chen_seed'])
 
 
-def estimator(design, values, initial_state=None, interval_resolution_ns=0):
+def _estimator(design, values, initial_state=None, interval_resolution_ns=0):
     """Return the constant-``G`` estimator of a Chen design."""
     return Estimator(ChenStep(design), initial_state,
                      interval_resolution_ns=interval_resolution_ns)
 
 
-def report(design):
+def _report(design):
     """Return ``F``, ``T`` and the conditioning of ``[C; T]``."""
     return (ReportItem('f', 'F', design.f), ReportItem('t', 'T (T A - F T = L C)', design.t),
             ReportItem('condition', 'cond([C; T])', design.condition))
 
 
-TYPE = register(ObserverType(
-    'chen', "Chen's reduced-order observer (Sylvester equation)", POLE_ARGUMENTS + (SEED,),
-    design, estimator, report))
+def _pinned(design, values):
+    """
+    Return the arguments that pin a Chen design: with a given ``L``, that ``L`` and the poles.
+
+    A designed ``L`` belongs to its own ``F`` (orthonormal ``T``), not to the diagonal ``F``
+    a given ``L`` is used with: the poles (and ``chen_seed``) reproduce that design, so
+    nothing is pinned.
+    """
+    if not values['gain']:
+        return {}
+    return {'gain': np.ravel(design.gain).tolist(), 'error_tolerance': None,
+            'error_time': None}
+
+
+TYPE = ObserverType(
+    NAME, "Chen's reduced-order observer (Sylvester equation)", POLE_ARGUMENTS + (SEED,),
+    design=_design, estimator=_estimator, report=_report,
+    capabilities=Capabilities(covariance=False, needs_every_output=True,
+                              linear_realization=True, several_sources=False),
+    priority=300, charged=charged_poles_or_gain, pinned=_pinned)

@@ -20,10 +20,10 @@ the process noise intensity) and the DARE solved for that interval; a discrete m
 its own ``Q`` and ``R``. The step reports the filtered covariance ``(I - M C) P``.
 """
 
-from observer_ros.core.design.kalman import discrete_kalman, KalmanDesign
 from observer_ros.core.discretize import van_loan
 from observer_ros.core.estimators.base import StepDesign, StepMatrices
-from observer_ros.core.estimators.full_order import current_form
+from observer_ros.core.observers.common import current_form
+from observer_ros.core.observers.kalman.design import discrete_kalman, KalmanDesign
 
 
 class KalmanStep(StepDesign):
