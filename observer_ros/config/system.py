@@ -36,13 +36,14 @@ from observer_ros.core.design.feedback import design_feedback, FeedbackDesign
 from observer_ros.core.design.integral import design_integral, IntegralDesign
 from observer_ros.core.disturbances import augment, augmented_noise, DisturbanceModel
 from observer_ros.core.errors import ConfigError, DesignError
-from observer_ros.core.estimators import StateEstimator
+from observer_ros.core.estimators import Estimator
+from observer_ros.core.events import ValueLimits
 from observer_ros.core.model import (
     covariance_from_flat, matrix_from_flat, StateSpaceModel, vector_from_flat)
 from observer_ros.core.observers import observer_type, ObserverType
 from observer_ros.core.observers.common import parsed_poles
 from observer_ros.core.simulation import input_limits_from_flat
-from observer_ros.core.streaming import StreamEstimator, ValueLimits
+from observer_ros.core.streaming import EventStream
 
 NANOSECONDS = 1_000_000_000
 
@@ -184,7 +185,7 @@ class System:
         params = self.parameters
         return {name: params[f'observer.{name}'] for name in self.kind.argument_names()}
 
-    def make_estimator(self) -> StateEstimator:
+    def make_estimator(self) -> Estimator:
         """Build the runtime estimator of the observer design (through its type)."""
         if self.observer is None:
             raise ConfigError('observer.poles', 'no observer is configured: give '
@@ -200,9 +201,9 @@ class System:
         """``observer.form``: ``current``, or ``delayed`` (types that have the argument)."""
         return self.observer_values().get('form', 'current')
 
-    def make_stream(self) -> StreamEstimator:
+    def make_stream(self) -> EventStream:
         """
-        Build the :class:`StreamEstimator` the observer node and the bag replay both run.
+        Build the :class:`EventStream` the observer node and the bag replay both run.
 
         Its gap, clock tolerance, value limits and form come from ``observer.max_gap``,
         ``observer.clock_tolerance``, ``topics.<topic>.limit`` and ``observer.form``; inputs
@@ -213,7 +214,7 @@ class System:
                              input=params['topics.u.limit'],
                              estimate=params['topics.x_hat.limit'],
                              innovation=params['topics.innovation.limit'])
-        return StreamEstimator(
+        return EventStream(
             self.make_estimator(), round(params['observer.max_gap'] * NANOSECONDS),
             input_stamped=params['topics.u.type'] == 'joint_state',
             clock_tolerance_ns=round(params['observer.clock_tolerance'] * NANOSECONDS),

@@ -62,9 +62,12 @@ Observer types
     :func:`observer_type`, :func:`observer_types`, :class:`ObserverType`, :func:`register`,
     :class:`Argument` (what a type reads).
 Estimators
-    :func:`make_estimator`, :class:`StateEstimator` (the protocol), :class:`Estimator` (the
-    constant-``G`` engine), :class:`TimeVaryingKalman`, :class:`Prediction`,
-    :class:`StreamEstimator`, :class:`ValueLimits`, :func:`transition`.
+    :func:`make_estimator`, :class:`Estimator` (the protocol), :class:`ConstantGainEstimator`
+    (one matrix per interval), :class:`TimeVaryingKalman`, :class:`Prediction`,
+    :func:`transition`.
+Events
+    :class:`EventEngine` (stamped measurements and inputs to rows: the stamp, value and
+    pairing rules), :class:`EventStream` (an estimator run on them), :class:`ValueLimits`.
 Simulation and evaluation
     :class:`PlantSimulator`, :func:`error_report`, :class:`ErrorReport`,
     :func:`format_error_table`, :func:`settling_time`, :func:`decay_rate`.
@@ -138,9 +141,10 @@ _EXPORTS = {
         'controller_transfer_function', 'diophantine_controller', 'solve_diophantine',
         'controller_state_space', 'closed_loop_matrix', 'closed_loop_poles'),
     'observer_ros.core.control': ('StateFeedbackLaw', 'IntegralAction'),
-    'observer_ros.core.estimators': ('Estimator', 'Prediction', 'StateEstimator',
+    'observer_ros.core.estimators': ('ConstantGainEstimator', 'Estimator', 'Prediction',
                                      'TimeVaryingKalman', 'make_estimator'),
-    'observer_ros.core.streaming': ('StreamEstimator', 'ValueLimits'),
+    'observer_ros.core.events': ('EventEngine', 'ValueLimits'),
+    'observer_ros.core.streaming': ('EventStream',),
     'observer_ros.core.simulation': ('PlantSimulator',),
     'observer_ros.core.disturbances': ('Disturbance', 'DisturbanceModel', 'augment',
                                        'augmented_noise'),

@@ -13,26 +13,28 @@
 # limitations under the License.
 
 """
-Runtime estimators: the protocol, the constant-``G`` loop and the time-varying Kalman filter.
+Runtime estimators: the protocol, the constant-gain engine and the time-varying Kalman filter.
 
-:class:`StateEstimator` is what the stream drives; :class:`Estimator` runs one matrix per
-sample interval from a step design (one per Luenberger type and the steady-state Kalman
-filter); :class:`TimeVaryingKalman` carries its covariance. The observer types
-(:mod:`observer_ros.core.observers`) say which one a design runs on.
+:class:`Estimator` is the protocol the stream drives; :class:`ConstantGainEstimator` runs
+one matrix per sample interval from a step design (one per Luenberger type and the
+steady-state Kalman filter); :class:`TimeVaryingKalman` carries its covariance. The observer
+types (:mod:`observer_ros.core.observers`) say which one a design runs on.
 """
 
 from observer_ros.core.design.common import ObserverDesign
-from observer_ros.core.estimators.base import Estimator, StepDesign, StepMatrices
 from observer_ros.core.estimators.chen import ChenStep
+from observer_ros.core.estimators.constant_gain import (
+    ConstantGainEstimator, StepDesign, StepMatrices)
 from observer_ros.core.estimators.full_order import FullOrderStep
+from observer_ros.core.estimators.intervals import IntervalCache
 from observer_ros.core.estimators.kalman import KalmanStep
-from observer_ros.core.estimators.protocol import Prediction, StateEstimator
+from observer_ros.core.estimators.protocol import Estimator, Prediction, SteadySteps
 from observer_ros.core.estimators.reduced_order import ReducedOrderStep
 from observer_ros.core.estimators.time_varying_kalman import TimeVaryingKalman
 
 
 def make_estimator(design: ObserverDesign, initial_state=None, method: str = 'auto',
-                   interval_resolution_ns: int = 0, **options) -> StateEstimator:
+                   interval_resolution_ns: int = 0, **options) -> Estimator:
     """
     Build the runtime estimator of an observer design, through its registered type.
 
@@ -41,7 +43,7 @@ def make_estimator(design: ObserverDesign, initial_state=None, method: str = 'au
     design : ObserverDesign
         From any design function; its ``kind`` names the observer type.
     initial_state : array_like, shape (n,), optional
-        Pins the first estimate (see :class:`Estimator`).
+        Pins the first estimate (see :class:`ConstantGainEstimator`).
     method : str
         Placement method of the per-interval designs (pole-placed types).
     interval_resolution_ns : int
@@ -52,8 +54,8 @@ def make_estimator(design: ObserverDesign, initial_state=None, method: str = 'au
 
     Returns
     -------
-    StateEstimator
-        The type's runtime estimator: an :class:`Estimator`, or a
+    Estimator
+        The type's runtime estimator: a :class:`ConstantGainEstimator`, or a
         :class:`TimeVaryingKalman` for ``kalman`` with ``time_varying=True``.
 
     Raises
@@ -67,7 +69,7 @@ def make_estimator(design: ObserverDesign, initial_state=None, method: str = 'au
     >>> model = StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
     >>> design = design_kalman(model, [0.0, 1.0], [0.01])
     >>> type(make_estimator(design)).__name__
-    'Estimator'
+    'ConstantGainEstimator'
     >>> type(make_estimator(design, time_varying=True)).__name__
     'TimeVaryingKalman'
 
@@ -78,6 +80,6 @@ def make_estimator(design: ObserverDesign, initial_state=None, method: str = 'au
     return kind.estimator(design, values, initial_state, interval_resolution_ns)
 
 
-__all__ = ['ChenStep', 'Estimator', 'FullOrderStep', 'KalmanStep', 'Prediction',
-           'ReducedOrderStep', 'StateEstimator', 'StepDesign', 'StepMatrices',
-           'TimeVaryingKalman', 'make_estimator']
+__all__ = ['ChenStep', 'ConstantGainEstimator', 'Estimator', 'FullOrderStep', 'IntervalCache',
+           'KalmanStep', 'Prediction', 'ReducedOrderStep', 'SteadySteps', 'StepDesign',
+           'StepMatrices', 'TimeVaryingKalman', 'make_estimator']

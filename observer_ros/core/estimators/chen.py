@@ -26,7 +26,7 @@ import numpy as np
 
 from observer_ros.core.design.chen import ChenDesign, solve_chen
 from observer_ros.core.discretize import zero_order_hold
-from observer_ros.core.estimators.base import (
+from observer_ros.core.estimators.constant_gain import (
     assemble_step, least_norm_consistent, StepDesign, StepMatrices)
 from observer_ros.core.placement import sort_poles
 from observer_ros.core.poles import clean_poles

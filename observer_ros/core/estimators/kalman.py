@@ -22,7 +22,7 @@ its own ``Q`` and ``R``. The step reports the filtered covariance ``(I - M C) P`
 
 from observer_ros.core.design.kalman import discrete_kalman, KalmanDesign
 from observer_ros.core.discretize import van_loan
-from observer_ros.core.estimators.base import StepDesign, StepMatrices
+from observer_ros.core.estimators.constant_gain import StepDesign, StepMatrices
 from observer_ros.core.estimators.full_order import current_form
 
 

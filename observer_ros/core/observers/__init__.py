@@ -72,7 +72,7 @@ class ObserverType:
         noise given). Raises ConfigError or DesignError naming its arguments.
     estimator : callable
         ``estimator(design, values, initial_state, interval_resolution_ns)`` returns the
-        runtime :class:`~observer_ros.core.estimators.StateEstimator`.
+        runtime :class:`~observer_ros.core.estimators.Estimator`.
     report : callable
         ``report(design) -> sequence of ReportItem``: the type's own matrices.
     vet : callable, optional

@@ -22,7 +22,7 @@ Runtime: :class:`~observer_ros.core.estimators.chen.ChenStep`.
 from observer_ros.core.arguments import Argument, INTEGER
 from observer_ros.core.design.chen import design_chen
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.estimators import Estimator
+from observer_ros.core.estimators import ConstantGainEstimator
 from observer_ros.core.estimators.chen import ChenStep
 from observer_ros.core.observers import ObserverType, register, ReportItem
 from observer_ros.core.observers.common import POLE_ARGUMENTS, requested_poles
@@ -52,8 +52,8 @@ def design(model, values):
 
 def estimator(design, values, initial_state=None, interval_resolution_ns=0):
     """Return the constant-``G`` estimator of a Chen design."""
-    return Estimator(ChenStep(design), initial_state,
-                     interval_resolution_ns=interval_resolution_ns)
+    return ConstantGainEstimator(ChenStep(design), initial_state,
+                                 interval_resolution_ns=interval_resolution_ns)
 
 
 def report(design):

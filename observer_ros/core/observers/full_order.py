@@ -15,13 +15,13 @@
 """
 Observer type ``full_order``: the Luenberger observer of order n, from poles or a gain.
 
-Runtime: :class:`~observer_ros.core.estimators.full_order.FullOrderStep` in the constant-``G``
-:class:`~observer_ros.core.estimators.Estimator` (the poles re-placed as ``exp(lambda dt)``
-for each interval of a continuous model).
+Runtime: :class:`~observer_ros.core.estimators.full_order.FullOrderStep` in the
+:class:`~observer_ros.core.estimators.ConstantGainEstimator` (the poles re-placed as
+``exp(lambda dt)`` for each interval of a continuous model).
 """
 
 from observer_ros.core.design.full_order import design_full_order
-from observer_ros.core.estimators import Estimator
+from observer_ros.core.estimators import ConstantGainEstimator
 from observer_ros.core.estimators.full_order import FullOrderStep
 from observer_ros.core.observers import ObserverType, register
 from observer_ros.core.observers.common import FORM, POLE_ARGUMENTS, poles_or_gain
@@ -38,8 +38,8 @@ def design(model, values):
 
 def estimator(design, values, initial_state=None, interval_resolution_ns=0):
     """Return the constant-``G`` estimator of a full-order design."""
-    return Estimator(FullOrderStep(design, values['method']), initial_state,
-                     interval_resolution_ns=interval_resolution_ns)
+    return ConstantGainEstimator(FullOrderStep(design, values['method']), initial_state,
+                                 interval_resolution_ns=interval_resolution_ns)
 
 
 TYPE = register(ObserverType(

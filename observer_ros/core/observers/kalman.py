@@ -24,15 +24,13 @@ each interval); with ``time_varying`` true the
 propagates its covariance over each actual interval from ``initial_covariance``.
 """
 
-import numpy as np
-
 from observer_ros.core.arguments import Argument, array, BOOL
 from observer_ros.core.design.kalman import design_kalman
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.estimators import Estimator
+from observer_ros.core.estimators import ConstantGainEstimator
 from observer_ros.core.estimators.kalman import KalmanStep
-from observer_ros.core.estimators.time_varying_kalman import TimeVaryingKalman
-from observer_ros.core.model import covariance_from_flat
+from observer_ros.core.estimators.time_varying_kalman import (
+    parse_initial_covariance, TimeVaryingKalman)
 from observer_ros.core.observers import ObserverType, register, ReportItem
 from observer_ros.core.observers.common import FORM
 
@@ -71,24 +69,18 @@ def design(model, values):
     if not q or not r:
         missing = 'process_noise' if not q else 'measurement_noise'
         raise ConfigError(missing, 'a Kalman filter needs both noise covariances')
-    if values['initial_covariance']:
-        p0 = covariance_from_flat('initial_covariance', values['initial_covariance'],
-                                  model.n_states)
-        if np.linalg.eigvalsh(p0).min() <= 0.0:
-            raise ConfigError('initial_covariance', 'expected a positive definite matrix')
+    parse_initial_covariance(values['initial_covariance'], model.n_states)  # checked now
     return design_kalman(model, q, r)
 
 
 def estimator(design, values, initial_state=None, interval_resolution_ns=0):
     """Return the steady-state (constant-``G``) or the time-varying filter."""
     if values['time_varying']:
-        p0 = values['initial_covariance'] or None
-        if p0 is not None:
-            p0 = covariance_from_flat('initial_covariance', p0, design.model.n_states)
         return TimeVaryingKalman(design.model, design.process_noise, design.measurement_noise,
-                                 p0, initial_state, interval_resolution_ns)
-    return Estimator(KalmanStep(design), initial_state,
-                     interval_resolution_ns=interval_resolution_ns)
+                                 values['initial_covariance'], initial_state,
+                                 interval_resolution_ns)
+    return ConstantGainEstimator(KalmanStep(design), initial_state,
+                                 interval_resolution_ns=interval_resolution_ns)
 
 
 def report(design):

@@ -21,7 +21,7 @@ agrees with every measurement (``C x_hat = y``).
 
 from observer_ros.core.arguments import Argument, STRING
 from observer_ros.core.design.reduced_order import COORDINATES, design_reduced_order
-from observer_ros.core.estimators import Estimator
+from observer_ros.core.estimators import ConstantGainEstimator
 from observer_ros.core.estimators.reduced_order import ReducedOrderStep
 from observer_ros.core.observers import ObserverType, register, ReportItem
 from observer_ros.core.observers.common import POLE_ARGUMENTS, poles_or_gain
@@ -44,8 +44,8 @@ def design(model, values):
 
 def estimator(design, values, initial_state=None, interval_resolution_ns=0):
     """Return the constant-``G`` estimator of a reduced-order design."""
-    return Estimator(ReducedOrderStep(design, values['method']), initial_state,
-                     interval_resolution_ns=interval_resolution_ns)
+    return ConstantGainEstimator(ReducedOrderStep(design, values['method']), initial_state,
+                                 interval_resolution_ns=interval_resolution_ns)
 
 
 def report(design):
