@@ -56,6 +56,8 @@ DOCUMENTED_MODULES = (
     'observer_ros.core.estimators.constant_gain',
     'observer_ros.core.estimators.intervals',
     'observer_ros.core.events',
+    'observer_ros.core.rules',
+    'observer_ros.core.estimates',
     'observer_ros.core.estimators.protocol',
     'observer_ros.core.estimators.time_varying_kalman',
     'observer_ros.core.streaming',

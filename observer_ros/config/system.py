@@ -37,11 +37,11 @@ from observer_ros.core.design.integral import design_integral, IntegralDesign
 from observer_ros.core.disturbances import augment, augmented_noise, DisturbanceModel
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.estimators import Estimator
-from observer_ros.core.events import ValueLimits
 from observer_ros.core.model import (
     covariance_from_flat, matrix_from_flat, StateSpaceModel, vector_from_flat)
 from observer_ros.core.observers import observer_type, ObserverType
 from observer_ros.core.observers.common import parsed_poles
+from observer_ros.core.rules import ValueLimits
 from observer_ros.core.simulation import input_limits_from_flat
 from observer_ros.core.streaming import EventStream
 

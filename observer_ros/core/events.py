@@ -22,15 +22,16 @@ events into :class:`Row` s ``(stamp, y, u, interval)`` for whatever consumes the
 every event it drops:
 
 * on arrival, :meth:`EventEngine.accept` applies the value rules (the source's size, finite,
-  within the :class:`ValueLimits`: :func:`within_limit`) and the clock rule
-  (:func:`ahead_of_clock`);
-* inputs are kept in stamp order (:class:`InputHistory`); measurements wait in one queue
-  (:meth:`EventEngine._enqueue`, the one ordering rule: arrival order);
+  within the :class:`~observer_ros.core.rules.ValueLimits`) and the clock rule (see
+  :mod:`observer_ros.core.rules`);
+* inputs are kept in stamp order (:class:`~observer_ros.core.rules.InputHistory`);
+  measurements wait in one queue (:meth:`EventEngine._enqueue`, the one ordering rule:
+  arrival order);
 * :meth:`EventEngine.process`, the one processing routine, takes the queue in order and
   applies the stamp rules (:meth:`EventEngine._admit`: a repeated stamp or a small step back
   is dropped, a gap or a backward jump longer than ``max_gap_ns`` starts again) and the
   pairing rule: the input of the interval ending at measurement ``k`` is the latest one
-  stamped at or before measurement ``k-1`` (:meth:`InputHistory.index_at`), so a future
+  stamped at or before measurement ``k-1`` (``InputHistory.index_at``), so a future
   input never leaks into the past; a measurement whose input may still be on its way waits
   until an input stamped at or after the previous measurement arrives, or a flush.
 
@@ -43,90 +44,23 @@ instead of dropping. Several measurement sources: each :class:`Source` names the
 carries; rows carry their source.
 """
 
-import bisect
 from collections import Counter
-from dataclasses import dataclass
-import math
 from typing import Any, NamedTuple, Optional
 
 import numpy as np
 
-#: Inputs kept at most (older ones are dropped once no interval can need them).
-MAX_INPUTS = 10_000
+from observer_ros.core.rules import (
+    ahead_of_clock, in_sequence, InputHistory, rows_within, ValueLimits, within_limit)
+
+__all__ = ['Event', 'EventEngine', 'INPUT', 'InputHistory', 'MEASUREMENT', 'PREDICTION', 'Row',
+           'RowCollector', 'Source', 'SteadyRows', 'ValueLimits', 'ahead_of_clock',
+           'in_sequence', 'rows_within', 'within_limit']
 
 #: The one measurement source and the one input source of today's configurations.
 MEASUREMENT, INPUT = 'y', 'u'
 
 #: Source of a queued prediction: an estimate waiting for the input after it (delayed form).
 PREDICTION = 'prediction'
-
-
-@dataclass(frozen=True)
-class ValueLimits:
-    """
-    Largest magnitudes a stream accepts (measurements, inputs) and returns (estimates).
-
-    ``math.inf`` (the default) sets no limit; non-finite values are refused regardless.
-
-    Attributes
-    ----------
-    measurement, input, estimate, innovation : float
-
-    Examples
-    --------
-    >>> ValueLimits(measurement=1e9).input
-    inf
-
-    """
-
-    measurement: float = math.inf
-    input: float = math.inf  # noqa: A003 (the role's name)
-    estimate: float = math.inf
-    innovation: float = math.inf
-
-
-def rows_within(rows: np.ndarray, limit: float) -> tuple:
-    """
-    Return ``(finite, inside)`` of each row (the last axis): the value rule.
-
-    A row is ``finite`` when every entry is, and ``inside`` when it is finite and no entry
-    exceeds ``limit`` in magnitude. Works on one vector (two booleans) as on many rows.
-    """
-    finite = np.isfinite(rows).all(axis=-1)
-    inside = finite & (np.abs(np.where(finite[..., None], rows, 0.0)).max(
-        axis=-1, initial=0.0) <= limit)
-    return finite, inside
-
-
-def within_limit(values, limit: float) -> bool:
-    """
-    Whether every entry of ``values`` (a vector, or one float) is finite and within ``limit``.
-
-    The rule of :func:`rows_within`; one dot product decides the common case.
-    """
-    if isinstance(values, float):
-        return math.isfinite(values) and -limit <= values <= limit
-    square = values @ values
-    if square < math.inf and square <= limit * limit:  # limit * limit may overflow to inf
-        return True
-    return bool(rows_within(values, limit)[1])
-
-
-def ahead_of_clock(stamps, nows, tolerance_ns: int):
-    """
-    Whether samples are stamped more than ``tolerance_ns`` ahead of the receiver's clock.
-
-    ``nows`` (one reading or an array): the clock at arrival; a reading of 0 or None, or a
-    tolerance of 0, checks nothing. Works on one stamp as on arrays.
-    """
-    if not tolerance_ns or nows is None:
-        return False
-    return (nows > 0) & (stamps - nows > tolerance_ns)
-
-
-def in_sequence(steps, max_gap_ns: int):
-    """Whether a stamp step follows on (after the previous, within the gap): the stamp rule."""
-    return (steps > 0) & (steps <= max_gap_ns)
 
 
 class Source(NamedTuple):
@@ -169,76 +103,6 @@ class Row(NamedTuple):
     u: np.ndarray
     interval_ns: int
     arrival_ns: int
-
-
-class InputHistory:
-    """
-    Inputs of one input source in stamp order (a repeated stamp replaces the earlier one).
-
-    Examples
-    --------
-    >>> history = InputHistory()
-    >>> history.store(10, 'a'); history.store(30, 'b')
-    >>> history.index_at(29), history.index_at(30), history.index_at(5)
-    (0, 1, -1)
-
-    """
-
-    def __init__(self) -> None:
-        self.stamps: list = []
-        self.values: list = []
-
-    def __len__(self) -> int:
-        return len(self.stamps)
-
-    def index_at(self, stamp_ns: int) -> int:
-        """Return the index of the latest input stamped at or before ``stamp_ns`` (-1: none)."""
-        return bisect.bisect_right(self.stamps, stamp_ns) - 1
-
-    def indices_at(self, stamps_ns: np.ndarray) -> np.ndarray:
-        """:meth:`index_at` of many stamps at once."""
-        return np.searchsorted(np.array(self.stamps, dtype=np.int64), stamps_ns,
-                               side='right') - 1
-
-    def store(self, stamp_ns: int, vector) -> None:
-        """Keep an input in stamp order; a repeated stamp replaces the earlier input."""
-        index = bisect.bisect_left(self.stamps, stamp_ns)
-        if index < len(self.stamps) and self.stamps[index] == stamp_ns:
-            self.values[index] = vector
-        else:
-            self.stamps.insert(index, stamp_ns)
-            self.values.insert(index, vector)
-
-    def store_many(self, stamps: np.ndarray, vectors: np.ndarray) -> None:
-        """Store many inputs at once, as :meth:`store` one by one would."""
-        if self.stamps:
-            for stamp, vector in zip(stamps.tolist(), vectors):
-                self.store(stamp, vector)
-            return
-        if not len(stamps):
-            return
-        order = np.argsort(stamps, kind='stable')
-        ordered = stamps[order]
-        last = np.append(ordered[1:] != ordered[:-1], True)  # of equal stamps the later wins
-        self.stamps = ordered[last].tolist()
-        self.values = list(vectors[order][last])
-
-    def prune(self, previous: Optional[int]) -> None:
-        """Drop inputs no interval after ``previous`` can need (and beyond the most kept)."""
-        if previous is None:
-            keep_from = max(0, len(self.stamps) - MAX_INPUTS)
-        else:
-            keep_from = max(0, self.index_at(previous))
-            keep_from = max(keep_from, len(self.stamps) - MAX_INPUTS)
-        if keep_from:
-            del self.stamps[:keep_from]
-            del self.values[:keep_from]
-
-    def drop_after(self, stamp_ns: int) -> None:
-        """Forget the inputs stamped after ``stamp_ns`` (an abandoned timeline)."""
-        keep = bisect.bisect_right(self.stamps, stamp_ns)
-        del self.stamps[keep:]
-        del self.values[keep:]
 
 
 class RowCollector:

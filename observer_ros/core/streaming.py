@@ -36,103 +36,19 @@ general path (``fast_paths=False`` turns it off; the tests hold the two equal).
 """
 
 from collections import Counter
-from dataclasses import dataclass
 import math
 from typing import Optional
 
 import numpy as np
 
+from observer_ros.core.estimates import EstimateSample, replay_arrays, ReplayArrays
 from observer_ros.core.estimators import Estimator, Prediction, SteadySteps
-from observer_ros.core.estimators.protocol import normalized_innovation_squared
-from observer_ros.core.events import (
-    ahead_of_clock, EventEngine, in_sequence, INPUT, MEASUREMENT, PREDICTION, rows_within,
-    ValueLimits, within_limit)
+from observer_ros.core.events import EventEngine, INPUT, MEASUREMENT, PREDICTION
+from observer_ros.core.rules import (
+    ahead_of_clock, in_sequence, rows_within, ValueLimits, within_limit)
 
 __all__ = ['EstimateSample', 'EventStream', 'ReplayArrays', 'ValueLimits', 'replay_arrays',
            'within_limit']
-
-
-class EstimateSample:
-    """
-    One published estimate: stamp, ``x_hat``, innovation and what a Kalman filter adds.
-
-    ``covariance`` is ``P`` of the published estimate (``(n, n)``), ``innovation_covariance``
-    the ``S`` of the innovation (``(p, p)``) and ``nis`` ``v^T S^-1 v`` (computed from the
-    two when first read, if not given); None without them. ``estimate`` and ``innovation``
-    are sequences of floats (arrays, or lists on the steady path).
-    """
-
-    __slots__ = ('stamp_ns', 'estimate', 'innovation', 'covariance', 'innovation_covariance',
-                 '_nis')
-
-    def __init__(self, stamp_ns: int, estimate, innovation, covariance=None,
-                 innovation_covariance=None, nis: Optional[float] = None) -> None:
-        self.stamp_ns = stamp_ns
-        self.estimate = estimate
-        self.innovation = innovation
-        self.covariance = covariance
-        self.innovation_covariance = innovation_covariance
-        self._nis = nis
-
-    @property
-    def nis(self) -> Optional[float]:
-        """``v^T S^-1 v`` of the innovation, or None without ``S``."""
-        if self._nis is None and self.innovation_covariance is not None:
-            self._nis = normalized_innovation_squared(self.innovation,
-                                                      self.innovation_covariance)
-        return self._nis
-
-    def _replace(self, **changes) -> 'EstimateSample':
-        fields = {'stamp_ns': self.stamp_ns, 'estimate': self.estimate,
-                  'innovation': self.innovation, 'covariance': self.covariance,
-                  'innovation_covariance': self.innovation_covariance, 'nis': self._nis}
-        fields.update(changes)
-        return EstimateSample(**fields)
-
-    def __repr__(self) -> str:
-        return f'EstimateSample(stamp_ns={self.stamp_ns}, estimate={list(self.estimate)})'
-
-
-@dataclass(frozen=True)
-class ReplayArrays:
-    """
-    Estimates of a batch replay, one row per published estimate.
-
-    Attributes
-    ----------
-    stamps_ns : numpy.ndarray of int64, shape (k,)
-    estimates : numpy.ndarray, shape (k, n)
-    innovations : numpy.ndarray, shape (k, p)
-    covariances : numpy.ndarray or None, shape (k, n, n)
-        Kalman filters: ``P`` of each estimate.
-    innovation_covariances : numpy.ndarray or None, shape (k, p, p)
-        Kalman filters: ``S`` of each innovation.
-    nis : numpy.ndarray or None, shape (k,)
-        Kalman filters: the normalised innovation squared.
-
-    """
-
-    stamps_ns: np.ndarray
-    estimates: np.ndarray
-    innovations: np.ndarray
-    covariances: Optional[np.ndarray] = None
-    innovation_covariances: Optional[np.ndarray] = None
-    nis: Optional[np.ndarray] = None
-
-
-def replay_arrays(samples: list, n_states: int, n_outputs: int) -> ReplayArrays:
-    """Stack estimate samples into :class:`ReplayArrays` (the Kalman arrays when all have)."""
-    stamps = np.array([s.stamp_ns for s in samples], dtype=np.int64)
-    estimates = np.array([s.estimate for s in samples]).reshape(-1, n_states)
-    innovations = np.array([s.innovation for s in samples]).reshape(-1, n_outputs)
-    covariances = innovation_covariances = nis = None
-    if samples and all(s.covariance is not None for s in samples):
-        covariances = np.array([s.covariance for s in samples])
-    if samples and all(s.innovation_covariance is not None for s in samples):
-        innovation_covariances = np.array([s.innovation_covariance for s in samples])
-        nis = np.array([s.nis for s in samples], dtype=float)
-    return ReplayArrays(stamps, estimates, innovations, covariances, innovation_covariances,
-                        nis)
 
 
 class EventStream:
@@ -512,7 +428,9 @@ class EventStream:
         Every measurement is admitted, so each interval's input is known in advance
         (:meth:`EventEngine.steady_rows`). None (estimator untouched) when an estimate
         leaves its limit: the caller then takes the general path, which restarts the
-        estimator there.
+        estimator there. Kept as it was: a constant-gain Kalman filter's covariance rows are
+        the steady ``P`` for every row, where the general path has none at the first sample
+        (so its arrays have none at all).
         """
         estimator = self.estimator
         count = len(stamps)

@@ -42,8 +42,8 @@ from std_srvs.srv import Trigger
 
 from observer_ros.config import OBSERVER
 from observer_ros.core.errors import ConfigError, ObserverRosError
-from observer_ros.core.events import within_limit
 from observer_ros.core.placement import preload_methods
+from observer_ros.core.rules import within_limit
 from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import JointStatesEncoder, MalformedMessage, VectorCodec
 from observer_ros.ros.parameters import ConfiguredNode, run_node
