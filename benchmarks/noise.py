@@ -56,7 +56,8 @@ def simulate(system, samples: int, seed: int):
 
 def mse(estimator, stamps, outputs, inputs, truth) -> float:
     """Mean over samples (after the burn-in) of ``||x - x_hat||^2``."""
-    estimates = estimator.run(stamps, outputs, inputs)
+    estimates = np.array([estimator.update(int(stamp), y, u).copy()
+                          for stamp, y, u in zip(stamps, outputs, inputs)])
     errors = (truth - estimates)[BURN_IN:]
     return float(np.mean(np.sum(errors ** 2, axis=1)))
 

@@ -17,7 +17,7 @@
 
 A bag of the seed 001 fourth-order plant (``y`` and ``u`` as JointState at 100 Hz) is
 written once per storage; ``replay_bag`` reads, decodes and estimates (end to end), and the
-estimator part alone (``StreamEstimator.replay`` on the decoded arrays) is set against
+estimator part alone (``EventStream.replay`` on the decoded arrays) is set against
 ``control.forced_response`` of the same discrete observer (its step matrix as an LTI
 system) on the same data.
 """
@@ -33,7 +33,7 @@ from observer_ros.bags.replay import replay_bag
 from observer_ros.bags.replay_outputs import write_replay
 from observer_ros.bags.storage import STORAGES, TopicToWrite, write_bag
 from observer_ros.config import load_parameter_file, validate_parameters
-from observer_ros.core.streaming import StreamEstimator
+from observer_ros.core.streaming import EventStream
 
 PERIOD_NS = 10_000_000
 
@@ -68,7 +68,7 @@ def run(smoke: bool, figures) -> Section:
                          f'{samples / seconds:,.0f}'])
             rows.append([f'... and write the x_hat bag ({storage})',
                          f'{seconds + writing:.2f}', f'{samples / (seconds + writing):,.0f}'])
-    stream = StreamEstimator(system.make_estimator(), int(1e9))
+    stream = EventStream(system.make_estimator(), int(1e9))
     replayed, ours = timed(lambda: stream.replay(stamps, inputs, stamps, outputs))
     rates['estimator part'] = samples / ours
     step = stream.estimator.last_step.g
@@ -83,7 +83,7 @@ def run(smoke: bool, figures) -> Section:
         return_x=True))
     rates['control.forced_response'] = samples / theirs
     difference = np.abs(response.states[:, -1] - replayed.estimates[-2]).max()
-    rows.append(['estimator part: `StreamEstimator.replay` on arrays', f'{ours:.2f}',
+    rows.append(['estimator part: `EventStream.replay` on arrays', f'{ours:.2f}',
                  f'{samples / ours:,.0f}'])
     rows.append(['`control.forced_response`, same observer and data', f'{theirs:.2f}',
                  f'{samples / theirs:,.0f}'])

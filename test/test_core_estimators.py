@@ -36,13 +36,14 @@ import scipy.signal
 
 from observer_ros.core import make_estimator
 from observer_ros.core.errors import StampError
-from observer_ros.core.estimators.base import Estimator
+from observer_ros.core.estimators.constant_gain import ConstantGainEstimator
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.observers.chen.design import design_chen
 from observer_ros.core.observers.full_order.design import design_full_order
 from observer_ros.core.observers.kalman.design import design_kalman
 from observer_ros.core.observers.reduced_order.design import design_reduced_order
 from observer_ros.core.simulation import PlantSimulator
+from observer_ros.core.streaming import EventStream
 from observer_ros.core.units import NANOSECONDS
 
 X0 = np.array([3.0, 2.0, -3.0, -1.0])
@@ -299,14 +300,14 @@ def test_interval_resolution_rounds_intervals_and_bounds_designs(plant, reduced_
     designs = []
     design_step = coarse.design.step
     coarse.design.step = lambda dt_ns: designs.append(dt_ns) or design_step(dt_ns)
-    got = coarse.run(stamps, ys, us)
+    got = update_loop(coarse, stamps, ys, us)
     # Each interval is designed for its nearest multiple of the resolution, once.
     rounded = [max(1, round(i / resolution_ns)) * resolution_ns for i in intervals]
     assert sorted(designs) == sorted(set(rounded))
     assert len(designs) <= 2_000_000 // resolution_ns + 2  # +-10 % jitter, the last interval
     # ... which is exactly the estimator on stamps whose intervals are those multiples.
     exact = make_estimator(reduced_design)
-    expected = exact.run(np.concatenate(([0], np.cumsum(rounded))), ys, us)
+    expected = update_loop(exact, np.concatenate(([0], np.cumsum(rounded))), ys, us)
     assert np.array_equal(got, expected)
     # Changing the resolution forgets the designs of the old one; 0 is exact again.
     designs.clear()
@@ -507,15 +508,21 @@ def test_replace_design_keeps_estimate_continuous(plant, reduced_design):
         estimator.adopt(make_estimator(other))
 
 
-def test_run_equals_update_loop(plant, reduced_design):
+def update_loop(estimator, stamps, outputs, inputs) -> np.ndarray:
+    """Update over recorded rows; row ``k`` of ``inputs`` is held from sample ``k-1`` to ``k``."""
+    return np.array([estimator.update(int(stamp), y, u).copy()
+                     for stamp, y, u in zip(stamps, outputs, inputs)])
+
+
+def test_replay_equals_update_loop(plant, reduced_design):
     stamps = np.cumsum([0] + [10_000_000] * 20 + [13_000_000] * 5)
     rng = np.random.default_rng(5)
     outputs = rng.standard_normal((stamps.size, 1))
     inputs = rng.standard_normal((stamps.size, 1))
-    batch = make_estimator(reduced_design).run(stamps, outputs, inputs)
-    single = make_estimator(reduced_design)
-    expected = np.array([single.update(int(s), y, u).copy()
-                         for s, y, u in zip(stamps, outputs, inputs)])
+    # The input held over the interval ending at k is the one stamped at sample k-1.
+    stream = EventStream(make_estimator(reduced_design), max_gap_ns=NANOSECONDS)
+    batch = stream.replay(stamps[:-1], inputs[1:], stamps, outputs).estimates
+    expected = update_loop(make_estimator(reduced_design), stamps, outputs, inputs)
     assert batch.shape == (stamps.size, 4)
     np.testing.assert_array_equal(batch, expected)
 
@@ -536,7 +543,7 @@ def test_cache_hit_at_steady_rate(plant, reduced_design):
 
 
 def test_cache_evicts_least_recently_used(plant, reduced_design):
-    estimator = Estimator(make_estimator(reduced_design).design, cache_size=2)
+    estimator = ConstantGainEstimator(make_estimator(reduced_design).design, cache_size=2)
     a = estimator.step_matrices(10_000_000)
     b = estimator.step_matrices(20_000_000)
     assert estimator.step_matrices(10_000_000) is a

@@ -31,7 +31,7 @@ from observer_ros.core import make_estimator, TimeVaryingKalman
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.observers.kalman.design import design_kalman, design_sampled_kalman
 from observer_ros.core.simulation import PlantSimulator
-from observer_ros.core.streaming import StreamEstimator
+from observer_ros.core.streaming import EventStream
 
 PERIOD_NS = 10_000_000
 MODEL = StateSpaceModel.from_matrices([[0.0, 1.0], [-4.0, -0.4]], [[0.0], [1.0]],
@@ -234,7 +234,7 @@ def test_the_delayed_form_is_the_one_step_prediction(kind):
 
 def test_a_steady_kalman_design_reports_its_innovation_covariance_and_nis():
     design = design_kalman(MODEL, np.ravel(Q), np.ravel(R))
-    stream = StreamEstimator(make_estimator(design), 10 ** 9, input_stamped=False)
+    stream = EventStream(make_estimator(design), 10 ** 9, input_stamped=False)
     samples = []
     for k in range(5):
         samples += stream.add_measurement(k * PERIOD_NS, [0.1 * k])

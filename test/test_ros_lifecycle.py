@@ -27,7 +27,7 @@ import pytest
 
 from observer_ros.config import FEEDBACK, node_parameters, OBSERVER, validate_parameters
 from observer_ros.config import load_parameter_file
-from observer_ros.core.streaming import StreamEstimator
+from observer_ros.core.streaming import EventStream
 from observer_ros.nodes.observer_lifecycle import ObserverLifecycleNode
 from observer_ros.nodes.state_feedback_lifecycle import StateFeedbackLifecycleNode
 from ros_support import executor_with, NodeProcess, overrides, ros_context, spin_until
@@ -89,7 +89,7 @@ def drive(driver, executor, node, samples, expect_estimates):
 
 def expected_estimates(system, samples):
     """Run a fresh estimator over ``samples`` (what a freshly started observer publishes)."""
-    stream = StreamEstimator(system.make_estimator(), 10**9)
+    stream = EventStream(system.make_estimator(), 10**9)
     estimates = []
     for stamp, u, y in samples:
         stream.add_input(stamp, u)

@@ -34,7 +34,7 @@ from std_srvs.srv import Trigger
 from bag_support import float64_array, joint_state as joint_state_cdr, serialize, TYPESTORE
 from conftest import CONFIG_DIR
 from observer_ros.config import load_parameter_file, validate_parameters
-from observer_ros.core.streaming import StreamEstimator
+from observer_ros.core.streaming import EventStream
 from observer_ros.nodes.observer import ObserverNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.messages import MalformedMessage, ns_to_stamp, VectorCodec
@@ -145,7 +145,7 @@ def test_malformed_measurements_are_dropped_and_counted(observer_setup):
     assert observer.counters()['malformed'] == len(bad)
     assert len(driver.estimates) == len(samples)
     # The estimates are those of the valid samples alone, bit for bit, and finite.
-    stream = StreamEstimator(system.make_estimator(), 10**9)
+    stream = EventStream(system.make_estimator(), 10**9)
     expected = []
     for stamp, u, y in samples:
         stream.add_input(stamp, u)
@@ -220,7 +220,7 @@ def test_rejected_parameter_change_keeps_everything(observer_setup, case):
         assert observer.get_parameter(name.replace('__', '.')).value == value
     assert observer.stream.estimator.design is design_before
     # Estimation goes on with the old gains.
-    stream = StreamEstimator(system.make_estimator(), 10**9)
+    stream = EventStream(system.make_estimator(), 10**9)
     expected = []
     for stamp, u, y in samples:
         stream.add_input(stamp, u)

@@ -21,7 +21,7 @@ from observer_ros.core import make_estimator
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.observers.full_order.design import design_full_order
 from observer_ros.core.simulation import PlantSimulator
-from observer_ros.core.streaming import StreamEstimator
+from observer_ros.core.streaming import EventStream
 from observer_ros.core.units import NANOSECONDS
 
 PERIOD_NS = 10_000_000
@@ -44,7 +44,7 @@ def simulated(count, inputs):
 
 def stream(max_gap=NANOSECONDS, stamped=True):
     _, design = double_integrator()
-    return StreamEstimator(make_estimator(design), max_gap, stamped)
+    return EventStream(make_estimator(design), max_gap, stamped)
 
 
 def reference_estimates(ys, inputs):
@@ -143,8 +143,8 @@ def test_reset_returns_to_the_initial_state():
     np.testing.assert_array_equal(out[0].estimate, [2.0, 0.0])
     np.testing.assert_array_equal(out[0].innovation, [2.0])
     _, design = double_integrator()
-    pinned = StreamEstimator(make_estimator(design, initial_state=[0.5, 1.0]), NANOSECONDS,
-                             False)
+    pinned = EventStream(make_estimator(design, initial_state=[0.5, 1.0]), NANOSECONDS,
+                         False)
     for k in range(5):
         pinned.add_measurement(NANOSECONDS + k * PERIOD_NS, [2.0])
     pinned.reset()

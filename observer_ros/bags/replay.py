@@ -15,9 +15,9 @@
 """
 Offline replay: the configured observer over a bag's ``y`` and ``u``, with recorded stamps.
 
-The estimates come from :meth:`observer_ros.core.streaming.StreamEstimator.replay`, the
-observer node's pairing and stamp rules and :meth:`Estimator.advance` arithmetic, so they
-equal what the node publishes for the same messages, bit for bit. Use :func:`replay_bag`
+The estimates come from :meth:`observer_ros.core.streaming.EventStream.replay`: the
+observer node's event engine (pairing, stamp and value rules) and estimator arithmetic, so
+they equal what the node publishes for the same messages, bit for bit. Use :func:`replay_bag`
 from your own tests::
 
     from observer_ros.bags.replay import replay_bag
@@ -150,7 +150,7 @@ class ReplayResult:
     outputs, inputs : TopicData
         What was read for ``y`` and ``u``.
     counters : dict
-        The stream's counters (see :class:`observer_ros.core.streaming.StreamEstimator`).
+        The stream's counters (see :class:`observer_ros.core.streaming.EventStream`).
 
     """
 

@@ -35,7 +35,7 @@ from observer_ros.core.design.feedback import design_feedback, FeedbackDesign
 from observer_ros.core.design.integral import design_integral, IntegralDesign
 from observer_ros.core.disturbances import augment, augmented_noise, DisturbanceModel
 from observer_ros.core.errors import ConfigError, DesignError
-from observer_ros.core.estimators import StateEstimator
+from observer_ros.core.estimators import Estimator
 from observer_ros.core.flat_matrices import (
     covariance_from_flat, matrix_from_flat, vector_from_flat)
 from observer_ros.core.loop_analysis.closed_loop import closed_loop_poles
@@ -44,8 +44,9 @@ from observer_ros.core.loop_analysis.transfer_function import ControllerTransfer
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.observers import disturbance_arguments, observer_type, ObserverType
 from observer_ros.core.observers.common import parsed_poles
+from observer_ros.core.rules import ValueLimits
 from observer_ros.core.simulation import input_limits_from_flat
-from observer_ros.core.streaming import StreamEstimator, ValueLimits
+from observer_ros.core.streaming import EventStream
 from observer_ros.core.units import NANOSECONDS
 
 
@@ -187,7 +188,7 @@ class System:
         params = self.parameters
         return {name: params[f'observer.{name}'] for name in self.kind.argument_names()}
 
-    def make_estimator(self) -> StateEstimator:
+    def make_estimator(self) -> Estimator:
         """Build the runtime estimator of the observer design (through its type)."""
         if self.observer is None:
             raise ConfigError('observer.poles', 'no observer is configured: give '
@@ -208,9 +209,9 @@ class System:
         """``observer.form``: ``current``, or ``delayed`` (types that have the argument)."""
         return self.observer_values().get('form', 'current')
 
-    def make_stream(self) -> StreamEstimator:
+    def make_stream(self) -> EventStream:
         """
-        Build the :class:`StreamEstimator` the observer node and the bag replay both run.
+        Build the :class:`EventStream` the observer node and the bag replay both run.
 
         Its gap, clock tolerance, value limits and form come from ``observer.max_gap``,
         ``observer.clock_tolerance``, ``topics.<topic>.limit`` and ``observer.form``; inputs
@@ -221,7 +222,7 @@ class System:
                              input=params['topics.u.limit'],
                              estimate=params['topics.x_hat.limit'],
                              innovation=params['topics.innovation.limit'])
-        return StreamEstimator(
+        return EventStream(
             self.make_estimator(), round(params['observer.max_gap'] * NANOSECONDS),
             input_stamped=params['topics.u.type'] == 'joint_state',
             clock_tolerance_ns=round(params['observer.clock_tolerance'] * NANOSECONDS),

@@ -65,9 +65,12 @@ Observer types
     type in its package under :mod:`observer_ros.core.observers`, found through the
     entry-point group ``observer_ros.observer_types``.
 Estimators
-    :func:`make_estimator`, :class:`StateEstimator` (the protocol), :class:`Estimator` (the
-    constant-``G`` engine), :class:`TimeVaryingKalman`, :class:`Prediction`,
-    :class:`StreamEstimator`, :class:`ValueLimits`, :func:`transition`.
+    :func:`make_estimator`, :class:`Estimator` (the protocol), :class:`ConstantGainEstimator`
+    (one matrix per interval), :class:`TimeVaryingKalman`, :class:`Prediction`,
+    :func:`transition`.
+Events
+    :class:`EventEngine` (stamped measurements and inputs to rows: the stamp, value and
+    pairing rules), :class:`EventStream` (an estimator run on them), :class:`ValueLimits`.
 Simulation and evaluation
     :class:`PlantSimulator`, :func:`error_report`, :class:`ErrorReport`,
     :func:`format_error_table`, :func:`settling_time`, :func:`decay_rate`.
@@ -144,9 +147,11 @@ _EXPORTS = {
         'diophantine_controller', 'solve_diophantine'),
     'observer_ros.core.loop_analysis.closed_loop': ('closed_loop_matrix', 'closed_loop_poles'),
     'observer_ros.core.feedback_law': ('StateFeedbackLaw', 'IntegralAction'),
-    'observer_ros.core.estimators': ('Estimator', 'Prediction', 'StateEstimator'),
+    'observer_ros.core.estimators': ('ConstantGainEstimator', 'Estimator', 'Prediction'),
     'observer_ros.core.observers.kalman.time_varying': ('TimeVaryingKalman',),
-    'observer_ros.core.streaming': ('StreamEstimator', 'ValueLimits'),
+    'observer_ros.core.events': ('EventEngine',),
+    'observer_ros.core.rules': ('ValueLimits',),
+    'observer_ros.core.streaming': ('EventStream',),
     'observer_ros.core.simulation': ('PlantSimulator',),
     'observer_ros.core.disturbances': ('Disturbance', 'DisturbanceModel', 'augment',
                                        'augmented_noise'),

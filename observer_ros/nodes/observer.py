@@ -43,7 +43,7 @@ from std_srvs.srv import Trigger
 from observer_ros.config import OBSERVER
 from observer_ros.core.errors import ConfigError, ObserverRosError
 from observer_ros.core.placement import preload_methods
-from observer_ros.core.streaming import EstimateSample, within_limit
+from observer_ros.core.rules import within_limit
 from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import JointStatesEncoder, MalformedMessage, VectorCodec
@@ -63,7 +63,7 @@ STEP_ERRORS = (ObserverRosError, np.linalg.LinAlgError, ValueError, ArithmeticEr
 
 class ObserverWiring:
     """
-    The observer's wiring: one :class:`StreamEstimator` to topics (a mixin).
+    The observer's wiring: one :class:`~observer_ros.core.streaming.EventStream` to topics.
 
     :class:`ObserverNode` builds it in its constructor, the managed variant
     (:mod:`observer_ros.nodes.observer_lifecycle`) on ``configure``.
@@ -201,33 +201,14 @@ class ObserverWiring:
 
     def _on_measurement(self, message) -> None:
         stamp, y = self._decode('y', message)
-        if y is None:
-            return
-        now = self._clock_for(stamp)
-        if len(y) == 1:  # the steady one-output case: the same numbers, fewer steps
-            result = self.stream.add_steady_measurement(stamp, y[0], now)
-            if result is not None:
-                self._publish_steady(stamp, result)
-                return
-        self._run(self.stream.add_measurement, stamp, np.array(y), now, time.monotonic_ns())
+        if y is not None:
+            self._run(self.stream.add_measurement, stamp, y, self._clock_for(stamp),
+                      time.monotonic_ns())
 
     def _on_input(self, message) -> None:
         stamp, u = self._decode('u', message)
         if u is not None:
-            self._run(self.stream.add_input, stamp, np.array(u), self._clock_for(stamp))
-
-    def _publish_steady(self, stamp: int, result: list) -> None:
-        """Publish ``[x_hat..., innovation...]`` of a steady step (x_hat first)."""
-        if not result:
-            self._publish([])
-            return
-        n = self.n_states
-        self.x_hat_publisher.publish(self.x_hat_codec.encode(stamp, result[:n]))
-        if self.joint_states is not None:
-            self._publish_joint_states(stamp, result[:n])
-        estimator = self.stream.estimator
-        self._publish_rest([EstimateSample(stamp, None, result[n:], estimator.covariance,
-                                           estimator.innovation_covariance, estimator.nis)])
+            self._run(self.stream.add_input, stamp, u, self._clock_for(stamp))
 
     def _on_wait_expired(self) -> None:
         self.wait_timer.cancel()
@@ -269,8 +250,8 @@ class ObserverWiring:
 
     def _publish(self, samples) -> None:
         for sample in samples:  # x_hat first: a controller waits for it
-            self.x_hat_publisher.publish(
-                self.codecs['x_hat'].encode(sample.stamp_ns, sample.estimate))
+            self.x_hat_publisher.publish(self.x_hat_codec.encode(sample.stamp_ns,
+                                                                 sample.estimate))
             if self.joint_states is not None:
                 self._publish_joint_states(sample.stamp_ns, sample.estimate)
         self._publish_rest(samples)

@@ -13,16 +13,19 @@
 # limitations under the License.
 
 """
-Runtime estimators: the protocol and the constant-``G`` engine the observer types share.
+Runtime estimators: the protocol, the constant-gain engine and the interval cache they share.
 
-:class:`StateEstimator` is what the stream drives; :class:`Estimator` runs one matrix per
-sample interval from a step design (each type's own, in its package under
+:class:`Estimator` is the protocol the stream drives; :class:`ConstantGainEstimator` runs
+one matrix per sample interval from a step design (each type's own, in its package under
 :mod:`observer_ros.core.observers`). A type with a filter of its own (the time-varying Kalman
-filter) implements :class:`StateEstimator` in its package;
+filter) implements :class:`Estimator` in its package;
 :func:`observer_ros.core.observers.make_estimator` builds the estimator of any design.
 """
 
-from observer_ros.core.estimators.base import Estimator, StepDesign, StepMatrices
-from observer_ros.core.estimators.protocol import Prediction, StateEstimator
+from observer_ros.core.estimators.constant_gain import (
+    ConstantGainEstimator, StepDesign, StepMatrices)
+from observer_ros.core.estimators.intervals import IntervalCache
+from observer_ros.core.estimators.protocol import Estimator, Prediction, SteadySteps
 
-__all__ = ['Estimator', 'Prediction', 'StateEstimator', 'StepDesign', 'StepMatrices']
+__all__ = ['ConstantGainEstimator', 'Estimator', 'IntervalCache', 'Prediction', 'SteadySteps',
+           'StepDesign', 'StepMatrices']

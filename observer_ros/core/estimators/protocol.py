@@ -13,15 +13,25 @@
 # limitations under the License.
 
 """
-What every runtime estimator offers: the protocol :class:`StateEstimator`.
+What every runtime estimator does: the protocol :class:`Estimator`.
 
-:class:`~observer_ros.core.streaming.StreamEstimator` (the pairing and stamp rules of the
-node and the bag replay) drives any estimator through it. Two implementations exist: the
-constant-``G`` :class:`~observer_ros.core.estimators.base.Estimator` (one matrix per sample
-interval; every Luenberger type and the steady-state Kalman filter) and the stateful
+An estimator takes a measurement at the end of a sample interval together with the input
+held over it (predict over the interval, then update), holds its current estimate, predicts
+ahead without changing anything, and can be reset. A covariance is a capability: an
+estimator without one returns None for :attr:`Estimator.covariance`,
+:attr:`~Estimator.innovation_covariance` and :attr:`~Estimator.nis`.
+
+:class:`~observer_ros.core.streaming.EventStream` drives any estimator through this protocol
+alone. An implementation may also offer the fast paths of :class:`SteadySteps` (a prepared
+steady step, a batch over many samples, equal bit for bit to :meth:`Estimator.advance`); the
+stream takes them when it is given one, as a private optimisation.
+
+Two implementations exist: the
+:class:`~observer_ros.core.estimators.constant_gain.ConstantGainEstimator` (one matrix per
+sample interval: every Luenberger type and the steady-state Kalman filter; it offers
+:class:`SteadySteps`) and the
 :class:`~observer_ros.core.observers.kalman.time_varying.TimeVaryingKalman`, which carries
-its covariance. Optional capabilities (a batch path, a prepared steady step) have defaults
-here that say "not offered"; the stream asks before it uses them.
+its covariance.
 """
 
 from abc import ABC, abstractmethod
@@ -55,64 +65,58 @@ class Prediction(NamedTuple):
     covariance: Optional[np.ndarray]
 
 
-def rounded_interval(dt_ns: int, resolution_ns: int) -> int:
-    """Return ``dt_ns`` rounded to the nearest multiple of ``resolution_ns`` (> 0), >= one."""
-    return max(1, (dt_ns + resolution_ns // 2) // resolution_ns) * resolution_ns
-
-
-class RoundedIntervals:
+def checked_vector(name: str, values, size: int) -> np.ndarray:
     """
-    ``interval_resolution_ns`` for an estimator that designs or samples per interval (a mixin).
+    Return ``values`` as a float vector of ``size`` finite entries, or raise naming ``name``.
 
-    The value is checked (an integer >= 0) and kept in ``_resolution_ns``; a change calls
-    ``_forget_intervals()``, which the estimator implements to drop what it made for the old
-    rounding. Put it before :class:`StateEstimator` in the bases.
+    Raises
+    ------
+    ConfigError
+        Another size, or a value that is not finite.
+
     """
-
-    _resolution_ns = 0
-
-    @property
-    def interval_resolution_ns(self) -> int:
-        """Intervals are rounded to multiples of this before they are designed (0: exact)."""
-        return self._resolution_ns
-
-    @interval_resolution_ns.setter
-    def interval_resolution_ns(self, value: int) -> None:
-        value = int(value)
-        if value < 0:
-            raise ConfigError('interval_resolution_ns', f'expected >= 0, got {value}')
-        if value != self._resolution_ns:
-            self._resolution_ns = value
-            self._forget_intervals()
-
-    def _forget_intervals(self) -> None:
-        raise NotImplementedError
+    vector = values
+    if type(vector) is not np.ndarray or vector.ndim != 1 or vector.dtype != float:
+        vector = np.asarray(values, dtype=float).reshape(-1)
+    # A finite dot product proves every entry finite (cheaper than isfinite().all()); an
+    # overflow falls through to the exact check.
+    if vector.size != size or (not math.isfinite(vector @ vector)
+                               and not np.isfinite(vector).all()):
+        raise ConfigError(name, f'expected {size} finite values, got {vector.tolist()}')
+    return vector
 
 
-class StateEstimator(ABC):
+def normalized_innovation_squared(innovation, covariance: np.ndarray) -> float:
+    """Return ``v^T S^-1 v`` (inf when ``S`` is singular)."""
+    innovation = np.asarray(innovation, dtype=float)
+    try:
+        return float(innovation @ np.linalg.solve(covariance, innovation))
+    except np.linalg.LinAlgError:
+        return math.inf
+
+
+class Estimator(ABC):
     """
     A discrete-time state estimator driven by stamped samples.
 
     Attributes
     ----------
     n_states, n_inputs, n_outputs : int
-    supports_batch : bool
-        Whether :meth:`advance_many` runs many steady samples at once (equal, bit for bit, to
-        :meth:`advance` one by one).
 
     Notes
     -----
     :meth:`update` (checked) and :meth:`advance` (values already checked) take the
     measurement ``y`` stamped ``stamp_ns`` and the input ``u`` held since the previous
     sample; the first sample (and the first after :meth:`reset` or :meth:`restart`) starts
-    the estimate. :meth:`predict` looks ahead without changing anything.
+    the estimate. :meth:`predict` looks ahead without changing anything. :meth:`snapshot`
+    and :meth:`restore` return to an earlier running state (a re-run from a history).
 
     Examples
     --------
     >>> from observer_ros.core import design_kalman, make_estimator, StateSpaceModel
     >>> model = StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
     >>> filter_ = make_estimator(design_kalman(model, [0.0, 1.0], [0.01]), time_varying=True)
-    >>> isinstance(filter_, StateEstimator), filter_.supports_batch
+    >>> isinstance(filter_, Estimator), isinstance(filter_, SteadySteps)
     (True, False)
 
     """
@@ -120,7 +124,6 @@ class StateEstimator(ABC):
     n_states: int
     n_inputs: int
     n_outputs: int
-    supports_batch = False
 
     @property
     @abstractmethod
@@ -153,21 +156,32 @@ class StateEstimator(ABC):
         covariance = self.innovation_covariance
         if covariance is None:
             return None
-        innovation = self.innovation
-        try:
-            value = float(innovation @ np.linalg.solve(covariance, innovation))
-        except np.linalg.LinAlgError:
-            return math.inf
-        return value
+        return normalized_innovation_squared(self.innovation, covariance)
 
     @property
-    def result(self) -> Optional[np.ndarray]:
-        """``[x_hat; innovation]`` of the last step when the estimator keeps one, or None."""
-        return None
+    def last_interval_ns(self) -> int:
+        """The interval of the last step in nanoseconds (0 at a first sample)."""
+        return 0
 
+    @property
     @abstractmethod
+    def initial_state(self) -> Optional[np.ndarray]:
+        """The pinned initial estimate, or None when it is not pinned."""
+
     def update(self, stamp_ns: int, y, u) -> np.ndarray:
-        """Take ``y`` at ``stamp_ns`` with ``u`` held since the last sample (checked)."""
+        """
+        Take ``y`` at ``stamp_ns`` with ``u`` held since the last sample; return the estimate.
+
+        Raises
+        ------
+        StampError
+            The stamp is not after the previous sample's.
+        ConfigError
+            ``y`` or ``u`` has the wrong length or a non-finite entry.
+
+        """
+        return self.advance(int(stamp_ns), checked_vector('y', y, self.n_outputs),
+                            checked_vector('u', u, self.n_inputs))
 
     @abstractmethod
     def advance(self, stamp_ns: int, y: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -195,11 +209,6 @@ class StateEstimator(ABC):
         The one arithmetic of every prediction (live and batch), so they agree bit for bit.
         """
 
-    @property
-    def last_interval_ns(self) -> int:
-        """The interval of the last step in nanoseconds (0 at a first sample)."""
-        return 0
-
     @abstractmethod
     def reset(self, initial_state=None) -> None:
         """Forget everything and start again as configured (``initial_state`` pins it)."""
@@ -217,7 +226,7 @@ class StateEstimator(ABC):
         """Return to a state taken by :meth:`snapshot`."""
 
     @abstractmethod
-    def adopt(self, other: 'StateEstimator') -> None:
+    def adopt(self, other: 'Estimator') -> None:
         """
         Take the design of ``other`` (same kind and sizes) and keep the running state.
 
@@ -225,38 +234,35 @@ class StateEstimator(ABC):
         estimate, the stamps (and a covariance) go on, so ``x_hat`` does not jump.
         """
 
-    @abstractmethod
     def recent_intervals(self) -> list:
-        """Return the last few distinct sample intervals (ns) the estimator stepped over."""
-
-    @property
-    def initial_state(self) -> Optional[np.ndarray]:
-        """The pinned initial estimate, or None when the first measurement starts it."""
-        return None
-
-    @initial_state.setter
-    def initial_state(self, values) -> None:
-        raise NotImplementedError
-
-    @property
-    def interval_resolution_ns(self) -> int:
-        """Intervals are rounded to multiples of this before they are designed (0: exact)."""
-        return 0
-
-    @interval_resolution_ns.setter
-    def interval_resolution_ns(self, value: int) -> None:
-        raise NotImplementedError
+        """Return the last few distinct sample intervals (ns) designed for (default: none)."""
+        return []
 
     def try_intervals(self, intervals_ns) -> None:
         """Design (or sample) for each interval now; raise what a sample would raise."""
 
+
+class SteadySteps(ABC):
+    """
+    Fast paths an estimator may offer (a capability; the stream asks with ``isinstance``).
+
+    Each gives the numbers :meth:`Estimator.advance` gives, bit for bit: the stream uses them
+    as a private optimisation, and its tests hold them equal to the general path.
+    """
+
+    @property
+    @abstractmethod
+    def result(self) -> Optional[np.ndarray]:
+        """``[x_hat; innovation]`` of the last step when the estimator keeps one, or None."""
+
+    @abstractmethod
     def prepare(self, u: np.ndarray, limits: Optional[tuple] = None) -> None:
-        """Make the next step's known part now, where the estimator can (default: not)."""
+        """Make the next step's known part now, with the input ``u`` held over it."""
 
+    @abstractmethod
     def advance_prepared(self, stamp_ns: int, y: float, u: np.ndarray) -> Optional[tuple]:
-        """Take a prepared steady one-output step (default: not offered, None)."""
-        return None
+        """Take a prepared steady one-output step: ``(result, bounded)``, or None."""
 
+    @abstractmethod
     def advance_many(self, stamps_ns, outputs, inputs) -> tuple:
-        """Run many steady samples at once (only when :attr:`supports_batch`)."""
-        raise NotImplementedError(f'{type(self).__name__} has no batch path')
+        """Run many samples at once: ``(estimates, innovations)``, as advance one by one."""

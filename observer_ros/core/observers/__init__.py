@@ -128,7 +128,7 @@ class ObserverType:
         arguments.
     estimator : callable
         ``estimator(design, values, initial_state, interval_resolution_ns)`` returns the
-        runtime :class:`~observer_ros.core.estimators.StateEstimator`.
+        runtime :class:`~observer_ros.core.estimators.Estimator`.
     report : callable
         ``report(design) -> sequence of ReportItem``: the type's own matrices.
     vet : callable, optional
@@ -332,7 +332,7 @@ def make_estimator(design: ObserverDesign, initial_state=None, method: str = 'au
 
     Returns
     -------
-    StateEstimator
+    Estimator
         The type's runtime estimator: an :class:`~observer_ros.core.estimators.Estimator`,
         or a :class:`TimeVaryingKalman` for ``kalman`` with ``time_varying=True``.
 
@@ -347,7 +347,7 @@ def make_estimator(design: ObserverDesign, initial_state=None, method: str = 'au
     >>> model = StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
     >>> design = design_kalman(model, [0.0, 1.0], [0.01])
     >>> type(make_estimator(design)).__name__
-    'Estimator'
+    'ConstantGainEstimator'
     >>> type(make_estimator(design, time_varying=True)).__name__
     'TimeVaryingKalman'
 

@@ -23,7 +23,7 @@ from observer_ros.core.analysis import format_modes
 from observer_ros.core.arguments import (
     Argument, array, DOUBLE, matrix_text, seconds, STRING, STRING_ARRAY)
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.estimators.base import assemble_step, StepMatrices
+from observer_ros.core.estimators.constant_gain import assemble_step, StepMatrices
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.placement import METHODS
 from observer_ros.core.poles import parse_poles, poles_meeting_error_spec, slowest_allowed_pole

@@ -24,7 +24,7 @@ import numpy as np
 
 from observer_ros.core.arguments import Argument, INTEGER, SEED_MAX
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.estimators.base import Estimator
+from observer_ros.core.estimators.constant_gain import ConstantGainEstimator
 from observer_ros.core.observers import Capabilities, ObserverType, ReportItem
 from observer_ros.core.observers.chen.design import design_chen
 from observer_ros.core.observers.chen.estimator import ChenStep
@@ -55,8 +55,8 @@ def _design(model, values, disturbance=None):
 
 def _estimator(design, values, initial_state=None, interval_resolution_ns=0):
     """Return the constant-``G`` estimator of a Chen design."""
-    return Estimator(ChenStep(design), initial_state,
-                     interval_resolution_ns=interval_resolution_ns)
+    return ConstantGainEstimator(ChenStep(design), initial_state,
+                                 interval_resolution_ns=interval_resolution_ns)
 
 
 def _report(design):

@@ -25,7 +25,7 @@ the full-state error unchanged when ``T`` changes with the interval.
 import numpy as np
 
 from observer_ros.core.discretize import zero_order_hold
-from observer_ros.core.estimators.base import (
+from observer_ros.core.estimators.constant_gain import (
     assemble_step, least_norm_consistent, StepDesign, StepMatrices)
 from observer_ros.core.observers.chen.design import ChenDesign, solve_chen
 from observer_ros.core.placement import sort_poles

@@ -21,7 +21,7 @@ constant-``G`` :class:`~observer_ros.core.estimators.Estimator` (the poles re-pl
 ``exp(lambda dt)`` for each interval of a continuous model).
 """
 
-from observer_ros.core.estimators.base import Estimator
+from observer_ros.core.estimators.constant_gain import ConstantGainEstimator
 from observer_ros.core.observers import Capabilities, ObserverType
 from observer_ros.core.observers.common import (
     charged_poles_or_gain, FORM, pinned_gain, POLE_ARGUMENTS, poles_or_gain)
@@ -42,8 +42,8 @@ def _design(model, values, disturbance=None):
 
 def _estimator(design, values, initial_state=None, interval_resolution_ns=0):
     """Return the constant-``G`` estimator of a full-order design."""
-    return Estimator(FullOrderStep(design, values['method']), initial_state,
-                     interval_resolution_ns=interval_resolution_ns)
+    return ConstantGainEstimator(FullOrderStep(design, values['method']), initial_state,
+                                 interval_resolution_ns=interval_resolution_ns)
 
 
 TYPE = ObserverType(

@@ -24,7 +24,7 @@ import numpy as np
 
 from observer_ros.core.design.common import ObserverDesign
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.estimators.base import place_sampled, StepDesign, StepMatrices
+from observer_ros.core.estimators.constant_gain import place_sampled, StepDesign, StepMatrices
 from observer_ros.core.observers.common import current_form
 
 

@@ -26,18 +26,17 @@ propagates its covariance over each actual interval from ``initial_covariance``.
 ``disturbance_noise`` (``process_noise`` then covers the plant states only).
 """
 
-import numpy as np
-
 from observer_ros.core.arguments import Argument, array, BOOL
 from observer_ros.core.disturbances import augmented_noise
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.estimators.base import Estimator
+from observer_ros.core.estimators.constant_gain import ConstantGainEstimator
 from observer_ros.core.flat_matrices import covariance_from_flat
 from observer_ros.core.observers import Capabilities, ObserverType, ReportItem
 from observer_ros.core.observers.common import FORM
 from observer_ros.core.observers.kalman.design import design_kalman
 from observer_ros.core.observers.kalman.estimator import KalmanStep
-from observer_ros.core.observers.kalman.time_varying import TimeVaryingKalman
+from observer_ros.core.observers.kalman.time_varying import (
+    parse_initial_covariance, TimeVaryingKalman)
 
 NAME = 'kalman'
 
@@ -100,24 +99,18 @@ def _design(model, values, disturbance=None):
     if not q or not r:
         missing = 'process_noise' if not q else 'measurement_noise'
         raise ConfigError(missing, 'a Kalman filter needs both noise covariances')
-    if values['initial_covariance']:
-        p0 = covariance_from_flat('initial_covariance', values['initial_covariance'],
-                                  model.n_states)
-        if np.linalg.eigvalsh(p0).min() <= 0.0:
-            raise ConfigError('initial_covariance', 'expected a positive definite matrix')
+    parse_initial_covariance(values['initial_covariance'], model.n_states)  # checked now
     return design_kalman(model, q, r)
 
 
 def _estimator(design, values, initial_state=None, interval_resolution_ns=0):
     """Return the steady-state (constant-``G``) or the time-varying filter."""
     if values['time_varying']:
-        p0 = values['initial_covariance'] or None
-        if p0 is not None:
-            p0 = covariance_from_flat('initial_covariance', p0, design.model.n_states)
         return TimeVaryingKalman(design.model, design.process_noise, design.measurement_noise,
-                                 p0, initial_state, interval_resolution_ns)
-    return Estimator(KalmanStep(design), initial_state,
-                     interval_resolution_ns=interval_resolution_ns)
+                                 values['initial_covariance'], initial_state,
+                                 interval_resolution_ns)
+    return ConstantGainEstimator(KalmanStep(design), initial_state,
+                                 interval_resolution_ns=interval_resolution_ns)
 
 
 def _report(design):

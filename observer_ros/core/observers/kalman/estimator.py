@@ -21,7 +21,7 @@ its own ``Q`` and ``R``. The step reports the filtered covariance ``(I - M C) P`
 """
 
 from observer_ros.core.discretize import van_loan
-from observer_ros.core.estimators.base import StepDesign, StepMatrices
+from observer_ros.core.estimators.constant_gain import StepDesign, StepMatrices
 from observer_ros.core.observers.common import current_form
 from observer_ros.core.observers.kalman.design import discrete_kalman, KalmanDesign
 

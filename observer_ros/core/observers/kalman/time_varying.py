@@ -35,28 +35,38 @@ R. E. Kalman, "A new approach to linear filtering and prediction problems", 1960
 R. S. Bucy and P. D. Joseph, Filtering for Stochastic Processes, 1968 (the Joseph form).
 """
 
-import math
 from typing import Optional
 
 import numpy as np
 
 from observer_ros.core.discretize import transition
 from observer_ros.core.errors import ConfigError, StampError
-from observer_ros.core.estimators.protocol import (
-    Prediction, rounded_interval, RoundedIntervals, StateEstimator)
+from observer_ros.core.estimators.intervals import IntervalCache, IntervalDesigns
+from observer_ros.core.estimators.protocol import checked_vector, Estimator, Prediction
 from observer_ros.core.flat_matrices import covariance_from_flat
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.units import NANOSECONDS
 
 
-#: Distinct intervals whose sampled model is kept.
-CACHE_SIZE = 256
+def parse_initial_covariance(values, n_states: int) -> np.ndarray:
+    """
+    Return ``P0`` from ``values`` (n diagonal values or n x n row-major; empty: identity).
 
-#: Distinct recent intervals remembered for :meth:`TimeVaryingKalman.recent_intervals`.
-RECENT = 4
+    Raises
+    ------
+    ConfigError
+        ``initial_covariance``: another size, or not positive definite.
+
+    """
+    if values is None or not np.size(values):
+        return np.eye(n_states)
+    matrix = covariance_from_flat('initial_covariance', np.ravel(values), n_states)
+    if np.linalg.eigvalsh(matrix).min() <= 0.0:
+        raise ConfigError('initial_covariance', 'expected a positive definite matrix')
+    return matrix
 
 
-class TimeVaryingKalman(RoundedIntervals, StateEstimator):
+class TimeVaryingKalman(IntervalDesigns, Estimator):
     """
     Kalman filter whose covariance follows the actual sample intervals.
 
@@ -90,8 +100,6 @@ class TimeVaryingKalman(RoundedIntervals, StateEstimator):
 
     """
 
-    supports_batch = False
-
     def __init__(self, model: StateSpaceModel, process_noise, measurement_noise,
                  initial_covariance=None, initial_state=None,
                  interval_resolution_ns: int = 0) -> None:
@@ -106,17 +114,11 @@ class TimeVaryingKalman(RoundedIntervals, StateEstimator):
             'measurement_noise', np.ravel(measurement_noise), self.n_outputs)
         if np.linalg.eigvalsh(self.measurement_noise).min() <= 0.0:
             raise ConfigError('measurement_noise', 'expected a positive definite matrix')
-        self.initial_covariance = (np.eye(n) if initial_covariance is None else
-                                   covariance_from_flat('initial_covariance',
-                                                        np.ravel(initial_covariance), n))
-        if np.linalg.eigvalsh(self.initial_covariance).min() <= 0.0:
-            raise ConfigError('initial_covariance', 'expected a positive definite matrix')
+        self.initial_covariance = parse_initial_covariance(initial_covariance, n)
         self._pinned = None
         self.initial_state = initial_state
-        self._last_key_dt = self._last_sampled = None
-        self._cache: dict = {}
-        self._recent: tuple = ()
-        self.interval_resolution_ns = interval_resolution_ns
+        self.intervals = IntervalCache(self._sample, resolution_ns=interval_resolution_ns,
+                                       constant=model.dt > 0.0)
         self._identity = np.eye(n)
         self._c_row = self.model.c[0].copy() if self.n_outputs == 1 else None
         self._r_value = float(self.measurement_noise[0, 0])
@@ -131,14 +133,8 @@ class TimeVaryingKalman(RoundedIntervals, StateEstimator):
 
     @initial_state.setter
     def initial_state(self, values) -> None:
-        if values is None:
-            self._pinned = None
-            return
-        vector = np.asarray(values, dtype=float).reshape(-1)
-        if vector.size != self.n_states or not np.isfinite(vector).all():
-            raise ValueError(f'initial_state: expected {self.n_states} finite values, got '
-                             f'{vector.tolist()}')
-        self._pinned = vector
+        self._pinned = (None if values is None else
+                        checked_vector('initial_state', values, self.n_states))
 
     @property
     def stamp_ns(self) -> Optional[int]:
@@ -187,54 +183,13 @@ class TimeVaryingKalman(RoundedIntervals, StateEstimator):
         self._unpack_one()
         return self._k
 
-    def _forget_intervals(self) -> None:
-        """Drop the models sampled for the old rounding (the resolution changed)."""
-        self._cache.clear()
-        self._recent = ()
-        self._last_key_dt = self._last_sampled = None
-
-    def recent_intervals(self) -> list:
-        """Return the last few distinct intervals (ns) sampled, newest first."""
-        return list(self._recent)[::-1]
-
-    @property
-    def _discrete(self) -> bool:
-        return self.model.dt > 0.0
-
     # --- the filter ----------------------------------------------------------------------
 
-    def _sampled(self, dt_ns: int, remember: bool = True) -> tuple:
-        if dt_ns == self._last_key_dt:
-            return self._last_sampled
-        sampled = self._lookup(dt_ns, remember)
-        if remember:
-            self._last_key_dt, self._last_sampled = dt_ns, sampled
-        return sampled
-
-    def _lookup(self, dt_ns: int, remember: bool) -> tuple:
-        key = dt_ns
-        if self._discrete:
-            key = 0
-        elif self._resolution_ns:
-            key = rounded_interval(dt_ns, self._resolution_ns)
-        cache = self._cache
-        sampled = cache.get(key)
-        if sampled is None:
-            if self._discrete:
-                sampled = (self.model.a, self.model.b, self.process_noise)
-            else:
-                sampled = transition(self.model, key / NANOSECONDS, self.process_noise)
-            if len(cache) >= CACHE_SIZE:
-                del cache[next(iter(cache))]  # the oldest interval sampled
-            cache[key] = sampled
-        if remember and key not in self._recent:
-            self._recent = (self._recent + (key,))[-RECENT:]
-        return sampled
-
-    def try_intervals(self, intervals_ns) -> None:
-        """Sample the model for each interval (ns) now."""
-        for dt_ns in intervals_ns:
-            self._sampled(int(dt_ns))
+    def _sample(self, key_ns: int) -> tuple:
+        """``(Ad, Bd, Qd)`` of an interval: a discrete model's own (key 0), else sampled."""
+        if self.model.dt > 0.0:
+            return self.model.a, self.model.b, self.process_noise
+        return transition(self.model, key_ns / NANOSECONDS, self.process_noise)
 
     def _measure(self, x_prior: np.ndarray, p_prior: np.ndarray, y: np.ndarray) -> None:
         if self.n_outputs == 1:
@@ -280,28 +235,6 @@ class TimeVaryingKalman(RoundedIntervals, StateEstimator):
         self._one = (innovation, variance, k)  # the arrays of the properties, when read
         self._nis = innovation * innovation / variance
 
-    def update(self, stamp_ns: int, y, u) -> np.ndarray:
-        """
-        Take ``y`` at ``stamp_ns`` with ``u`` held since the last sample.
-
-        Raises
-        ------
-        StampError
-            The stamp is not after the previous sample's.
-        ValueError
-            Wrong sizes or non-finite values.
-
-        """
-        if type(y) is not np.ndarray or y.ndim != 1 or y.dtype != float:
-            y = np.asarray(y, dtype=float).reshape(-1)
-        if type(u) is not np.ndarray or u.ndim != 1 or u.dtype != float:
-            u = np.asarray(u, dtype=float).reshape(-1)
-        if y.size != self.n_outputs or not math.isfinite(y @ y) and not np.isfinite(y).all():
-            raise ConfigError('y', f'expected {self.n_outputs} finite values, got {y.tolist()}')
-        if u.size != self.n_inputs or not math.isfinite(u @ u) and not np.isfinite(u).all():
-            raise ConfigError('u', f'expected {self.n_inputs} finite values, got {u.tolist()}')
-        return self.advance(int(stamp_ns), y, u)
-
     def advance(self, stamp_ns: int, y: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Take a sample whose values are checked already; return ``x[k|k]``."""
         if self._stamp is None:
@@ -312,7 +245,9 @@ class TimeVaryingKalman(RoundedIntervals, StateEstimator):
             if dt_ns <= 0:
                 raise StampError(f'stamp {stamp_ns} ns is not after the previous sample '
                                  f'({self._stamp} ns)')
-            ad, bd, qd = self._sampled(dt_ns)
+            intervals = self.intervals
+            ad, bd, qd = (intervals.last if dt_ns == intervals.last_dt_ns
+                          else intervals.get(dt_ns))
             p_prior = ad @ self._p @ ad.T
             p_prior += qd
             self._measure(ad @ self._x + bd @ u, p_prior, y)
@@ -325,7 +260,7 @@ class TimeVaryingKalman(RoundedIntervals, StateEstimator):
         """Return ``x`` and ``P`` carried over ``interval_ns`` with ``u`` (0: unchanged)."""
         if interval_ns <= 0:
             return Prediction(0, np.array(estimate, dtype=float), covariance)
-        ad, bd, qd = self._sampled(interval_ns, remember=False)
+        ad, bd, qd = self.intervals.peek(interval_ns)
         p = ad @ covariance @ ad.T + qd
         return Prediction(0, ad @ estimate + bd @ np.asarray(u, dtype=float),
                           0.5 * (p + p.T))
@@ -374,7 +309,7 @@ class TimeVaryingKalman(RoundedIntervals, StateEstimator):
         self._one = None
         self._prior_x, self._prior_p = prior_x.copy(), prior_p.copy()
 
-    def adopt(self, other: StateEstimator) -> None:
+    def adopt(self, other: Estimator) -> None:
         """Take the noises, ``P0`` and resolution of ``other``; keep ``x``, ``P`` and stamps."""
         if not isinstance(other, TimeVaryingKalman):
             raise ValueError(f'adopt: expected a TimeVaryingKalman, got {type(other).__name__}')
@@ -385,14 +320,5 @@ class TimeVaryingKalman(RoundedIntervals, StateEstimator):
         self.process_noise, self.measurement_noise = other.process_noise, other.measurement_noise
         self._c_row, self._r_value = other._c_row, other._r_value
         self.initial_covariance = other.initial_covariance
-        self._cache.clear()
+        self.intervals.clear(recent=False)
         self.interval_resolution_ns = other.interval_resolution_ns
-
-
-def is_positive_definite(matrix: np.ndarray) -> bool:
-    """Whether a symmetric matrix is positive definite (its Cholesky factor exists)."""
-    try:
-        np.linalg.cholesky(matrix)
-    except np.linalg.LinAlgError:
-        return False
-    return bool(math.isfinite(float(np.trace(matrix))))

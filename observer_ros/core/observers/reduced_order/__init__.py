@@ -21,7 +21,7 @@ the estimate agrees with every measurement (``C x_hat = y``), so each update nee
 """
 
 from observer_ros.core.arguments import Argument, STRING
-from observer_ros.core.estimators.base import Estimator
+from observer_ros.core.estimators.constant_gain import ConstantGainEstimator
 from observer_ros.core.observers import Capabilities, ObserverType, ReportItem
 from observer_ros.core.observers.common import (
     charged_poles_or_gain, pinned_gain, POLE_ARGUMENTS, poles_or_gain)
@@ -48,8 +48,8 @@ def _design(model, values, disturbance=None):
 
 def _estimator(design, values, initial_state=None, interval_resolution_ns=0):
     """Return the constant-``G`` estimator of a reduced-order design."""
-    return Estimator(ReducedOrderStep(design, values['method']), initial_state,
-                     interval_resolution_ns=interval_resolution_ns)
+    return ConstantGainEstimator(ReducedOrderStep(design, values['method']), initial_state,
+                                 interval_resolution_ns=interval_resolution_ns)
 
 
 def _report(design):

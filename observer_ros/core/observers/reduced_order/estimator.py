@@ -27,7 +27,7 @@ has error ``e_b[k] = (Phi_bb - L Phi_ab) e_b[k-1]``, with ``L`` placing ``exp(la
 
 import numpy as np
 
-from observer_ros.core.estimators.base import (
+from observer_ros.core.estimators.constant_gain import (
     assemble_step, least_norm_consistent, place_sampled, StepDesign, StepMatrices)
 from observer_ros.core.observers.reduced_order.design import ReducedOrderDesign
 

@@ -30,8 +30,8 @@ package's ``setup.py``.
 import numpy as np
 
 from observer_ros.core import (
-    Argument, Capabilities, ConfigError, ObserverDesign, ObserverType, Prediction,
-    StampError, StateEstimator, transition)
+    Argument, Capabilities, ConfigError, Estimator, ObserverDesign, ObserverType, Prediction,
+    StampError, transition)
 from observer_ros.core.arguments import DOUBLE
 from observer_ros.core.observers import ReportItem
 
@@ -69,8 +69,8 @@ def _design(model, values, disturbance=None):
                           residual=0.0, realization=None)
 
 
-class AlphaBetaEstimator(StateEstimator):
-    """The runtime alpha-beta tracker (an observer_ros ``StateEstimator`` of its own)."""
+class AlphaBetaEstimator(Estimator):
+    """The runtime alpha-beta tracker (an observer_ros ``Estimator`` of its own)."""
 
     def __init__(self, design: ObserverDesign, values, initial_state=None) -> None:
         model = design.model

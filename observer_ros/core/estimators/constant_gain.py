@@ -13,36 +13,32 @@
 # limitations under the License.
 
 """
-The runtime estimator loop shared by every observer type.
+The constant-gain estimator: one matrix per sample interval, shared by the step designs.
 
-Each observer type is a *step design*: for a sample interval it returns one matrix ``G``
-with ``[x_hat_new; innovation] = G [x_hat_prev; u; y]``, where ``u`` is the input held over
-the interval and ``y`` the measurement at its end. :class:`Estimator` owns the state,
-the stamps and a cache of those matrices keyed by the interval in integer nanoseconds, so
-a steady rate costs one matrix-vector product per update and jittered stamps stay exact.
+Each observer type that reuses it is a *step design*: for a sample interval it returns one
+matrix ``G`` with ``[x_hat_new; innovation] = G [x_hat_prev; u; y]``, where ``u`` is the
+input held over the interval and ``y`` the measurement at its end.
+:class:`ConstantGainEstimator` owns the state, the stamps and a cache of those matrices
+keyed by the interval in integer nanoseconds (:class:`~.intervals.IntervalCache`), so a
+steady rate costs one matrix-vector product per update and jittered stamps stay exact. For a
+continuous model the poles are placed again for each new interval (:meth:`StepDesign.step`).
 """
 
-from collections import OrderedDict
 from dataclasses import dataclass, field
-import math
 from typing import Optional
 
 import numpy as np
 
 from observer_ros.core.discretize import transition, zero_order_hold
 from observer_ros.core.errors import ConfigError, DesignError, StampError
+from observer_ros.core.estimators.intervals import (
+    DEFAULT_CACHE_SIZE, IntervalCache, IntervalDesigns)
 from observer_ros.core.estimators.protocol import (
-    Prediction, rounded_interval, RoundedIntervals, StateEstimator)
+    checked_vector, Estimator, Prediction, SteadySteps)
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.placement import place_observer
 from observer_ros.core.poles import to_discrete
 from observer_ros.core.units import NANOSECONDS
-
-#: Number of distinct sample intervals whose step matrices are kept.
-DEFAULT_CACHE_SIZE = 256
-
-#: Distinct recent intervals remembered for :meth:`Estimator.recent_intervals`.
-RECENT_INTERVALS = 4
 
 #: Prediction intervals whose transition matrices are kept (:meth:`Estimator.predict`).
 PREDICTION_CACHE = 64
@@ -198,9 +194,9 @@ def least_norm_consistent(c: np.ndarray, initial_state: np.ndarray, y: np.ndarra
     return initial_state + correction
 
 
-class Estimator(RoundedIntervals, StateEstimator):
+class ConstantGainEstimator(IntervalDesigns, SteadySteps, Estimator):
     """
-    The constant-``G`` estimator: one matrix per sample interval, cached by interval.
+    The constant-gain estimator: one matrix ``G`` per sample interval, cached by interval.
 
     Parameters
     ----------
@@ -249,13 +245,8 @@ class Estimator(RoundedIntervals, StateEstimator):
         self.n_outputs = model.n_outputs
         self._pinned: Optional[np.ndarray] = None
         self.initial_state = initial_state
-        self._cache: OrderedDict = OrderedDict()
-        self._transitions: OrderedDict = OrderedDict()
-        self._recent: OrderedDict = OrderedDict()
-        self._cache_size = cache_size
-        self._last_dt_ns: Optional[int] = None
-        self._last_step_matrices: Optional[StepMatrices] = None
-        self.interval_resolution_ns = interval_resolution_ns
+        self.intervals = IntervalCache(self._design_step, cache_size, interval_resolution_ns)
+        self._transitions = IntervalCache(self._transition, PREDICTION_CACHE)
         self._stamp: Optional[int] = None
         self._start, self._start_pinned = self._initial_prior()
         self._x = self._start.copy()
@@ -308,19 +299,6 @@ class Estimator(RoundedIntervals, StateEstimator):
         self._materialize()
         self._result_array = value
 
-    @staticmethod
-    def _vector(name: str, values, size: int, default_zero: bool = False) -> np.ndarray:
-        if values is None and default_zero:
-            return np.zeros(size)
-        vector = np.asarray(values, dtype=float).reshape(-1)
-        if vector.size != size:
-            raise ValueError(f'{name}: expected {size} values, got {vector.size}')
-        # A finite dot product proves every entry finite (cheaper than isfinite().all());
-        # an overflow falls through to the exact check.
-        if not math.isfinite(vector @ vector) and not np.isfinite(vector).all():
-            raise ValueError(f'{name}: expected finite values, got {vector.tolist()}')
-        return vector
-
     @property
     def initial_state(self) -> Optional[np.ndarray]:
         """The pinned initial estimate, or None when the first measurement initialises it."""
@@ -329,7 +307,7 @@ class Estimator(RoundedIntervals, StateEstimator):
     @initial_state.setter
     def initial_state(self, values) -> None:
         self._pinned = (None if values is None else
-                        self._vector('initial_state', values, self.n_states))
+                        checked_vector('initial_state', values, self.n_states))
 
     def _initial_prior(self) -> tuple:
         if self._pinned is None:
@@ -356,8 +334,6 @@ class Estimator(RoundedIntervals, StateEstimator):
         """Stamp of the last accepted sample, None before the first one."""
         return self._stamp
 
-    supports_batch = True
-
     @property
     def covariance(self) -> Optional[np.ndarray]:
         """Kalman filters: covariance of the estimate after the last update."""
@@ -378,33 +354,30 @@ class Estimator(RoundedIntervals, StateEstimator):
         """
         if interval_ns <= 0:
             return Prediction(0, np.array(estimate, dtype=float), covariance)
-        cached = self._transitions.get(interval_ns)
-        if cached is None:
-            cached = self.design.transition(interval_ns)
-            self._transitions[interval_ns] = cached
-            if len(self._transitions) > PREDICTION_CACHE:
-                self._transitions.popitem(last=False)
-        ad, bd, qd = cached
+        ad, bd, qd = self._transitions.peek(interval_ns)
         predicted = ad @ estimate + bd @ np.asarray(u, dtype=float)
         if covariance is not None and qd is not None:
             covariance = ad @ covariance @ ad.T + qd
             covariance = 0.5 * (covariance + covariance.T)
         return Prediction(0, predicted, covariance)
 
+    def _design_step(self, interval_ns: int) -> StepMatrices:
+        return self.design.step(interval_ns)
+
+    def _transition(self, interval_ns: int) -> tuple:
+        return self.design.transition(interval_ns)
+
     @property
     def last_interval_ns(self) -> int:
         """The interval of the last step in nanoseconds (0 at a first sample)."""
-        return 0 if self._step is None or self._last_dt_ns is None else self._last_dt_ns
+        last = self.intervals.last_dt_ns
+        return 0 if self._step is None or last is None else last
 
-    def try_intervals(self, intervals_ns) -> None:
-        """Make the step of each interval (ns) now; raise what a sample would raise."""
-        for dt_ns in intervals_ns:
-            self.step_matrices(int(dt_ns))
-
-    def adopt(self, other: StateEstimator) -> None:
-        """Take the step design of ``other`` (an :class:`Estimator`); keep the state."""
-        if not isinstance(other, Estimator):
-            raise ValueError(f'adopt: expected an Estimator, got {type(other).__name__}')
+    def adopt(self, other: Estimator) -> None:
+        """Take the step design of ``other`` (a constant-gain estimator); keep the state."""
+        if not isinstance(other, ConstantGainEstimator):
+            raise ValueError(f'adopt: expected a ConstantGainEstimator, got '
+                             f'{type(other).__name__}')
         self.replace_design(other.design)
         self.interval_resolution_ns = other.interval_resolution_ns
 
@@ -414,69 +387,12 @@ class Estimator(RoundedIntervals, StateEstimator):
         return self._step
 
     def _forget_intervals(self) -> None:
-        """Drop the steps designed for the old rounding (the resolution changed)."""
-        self._cache.clear()
-        self._recent.clear()
-        self._last_dt_ns = self._last_step_matrices = self._prepared = None
-
-    def recent_intervals(self) -> list:
-        """
-        Return the last few distinct intervals (ns, rounded as designed) stepped over.
-
-        Kept across :meth:`replace_design`, so a caller can check that a new design can
-        be sampled at the intervals in use before switching to it.
-        """
-        return list(self._recent)[::-1]
+        """Drop the prepared step of the old rounding (the resolution changed)."""
+        self._prepared = None
 
     def step_matrices(self, dt_ns: int) -> StepMatrices:
         """Return the (cached) step matrices for an interval in nanoseconds."""
-        if dt_ns == self._last_dt_ns:
-            return self._last_step_matrices
-        key = dt_ns
-        if self._resolution_ns:
-            key = rounded_interval(dt_ns, self._resolution_ns)
-        step = self._cache.get(key)
-        if step is None:
-            step = self.design.step(key)
-            self._cache[key] = step
-            if len(self._cache) > self._cache_size:
-                self._cache.popitem(last=False)
-        else:
-            self._cache.move_to_end(key)
-        recent = self._recent
-        recent[key] = None
-        recent.move_to_end(key)
-        if len(recent) > RECENT_INTERVALS:
-            recent.popitem(last=False)
-        self._last_dt_ns, self._last_step_matrices = dt_ns, step
-        return step
-
-    def update(self, stamp_ns: int, y, u) -> np.ndarray:
-        """
-        Take the measurement ``y`` stamped ``stamp_ns`` and the input held since the last one.
-
-        Parameters
-        ----------
-        stamp_ns : int
-            Measurement time in nanoseconds; must increase from update to update.
-        y : array_like, shape (p,)
-        u : array_like, shape (m,)
-
-        Returns
-        -------
-        numpy.ndarray, shape (n,)
-            The new estimate (the estimator's own array: copy it to keep it).
-
-        Raises
-        ------
-        StampError
-            If ``stamp_ns`` is not after the previous sample's.
-        ValueError
-            If ``y`` or ``u`` has the wrong length or a non-finite entry.
-
-        """
-        return self.advance(int(stamp_ns), self._vector('y', y, self.n_outputs),
-                            self._vector('u', u, self.n_inputs))
+        return self.intervals.get(dt_ns)
 
     def advance(self, stamp_ns: int, y: np.ndarray, u: np.ndarray) -> np.ndarray:
         """
@@ -499,7 +415,8 @@ class Estimator(RoundedIntervals, StateEstimator):
         if dt_ns <= 0:
             raise StampError(
                 f'stamp {stamp_ns} ns is not after the previous sample ({self._stamp} ns)')
-        step = self.step_matrices(dt_ns)
+        intervals = self.intervals
+        step = intervals.last if dt_ns == intervals.last_dt_ns else intervals.get(dt_ns)
         n = self.n_states
         prepared = self._prepared
         if (prepared is not None and prepared[0] is self._x and prepared[1] is u
@@ -534,7 +451,7 @@ class Estimator(RoundedIntervals, StateEstimator):
         :meth:`advance_prepared` say whether every ``y`` within the first keeps the result
         within the second.
         """
-        step = self._last_step_matrices
+        step = self.intervals.last
         if self._stamp is None or step is None:
             return
         prepared = self._prepared
@@ -547,7 +464,7 @@ class Estimator(RoundedIntervals, StateEstimator):
             if limits is not None:
                 reach = np.abs(known) + np.abs(step.g_y_column) * limits[0]
                 bounded = bool(np.isfinite(reach).all() and reach.max() <= limits[1])
-        self._prepared = (self._x, u, step, known, self._last_dt_ns, floats, bounded)
+        self._prepared = (self._x, u, step, known, self.intervals.last_dt_ns, floats, bounded)
 
     def advance_prepared(self, stamp_ns: int, y: float, u: np.ndarray) -> Optional[tuple]:
         """
@@ -563,7 +480,7 @@ class Estimator(RoundedIntervals, StateEstimator):
         prepared = self._prepared
         if (prepared is None or prepared[5] is None or prepared[0] is not self._x
                 or prepared[1] is not u or stamp_ns - self._stamp != prepared[4]
-                or prepared[2] is not self._last_step_matrices):
+                or prepared[2] is not self.intervals.last):
             return None
         known, g_y = prepared[5]
         result = [k + g * y for k, g in zip(known, g_y)]  # known + output_term(step, [y])
@@ -661,22 +578,6 @@ class Estimator(RoundedIntervals, StateEstimator):
                 self.n_states, self.n_inputs, self.n_outputs):
             raise ValueError('replace_design: the new design has other dimensions')
         self.design = design
-        self._cache.clear()
+        self.intervals.clear(recent=False)
         self._transitions.clear()
-        self._last_dt_ns = self._last_step_matrices = self._prepared = None
-
-    def run(self, stamps_ns, outputs, inputs) -> np.ndarray:
-        """
-        Run over recorded arrays; row ``k`` of ``inputs`` is held from sample ``k-1`` to ``k``.
-
-        Returns
-        -------
-        numpy.ndarray, shape (samples, n)
-
-        """
-        outputs = np.asarray(outputs, dtype=float)
-        inputs = np.asarray(inputs, dtype=float)
-        estimates = np.empty((len(stamps_ns), self.n_states))
-        for index, stamp in enumerate(stamps_ns):
-            estimates[index] = self.update(int(stamp), outputs[index], inputs[index])
-        return estimates
+        self._prepared = None
