@@ -34,7 +34,7 @@ from observer_ros.core.errors import ConfigError, DesignError, StampError
 from observer_ros.core.estimators.intervals import (
     DEFAULT_CACHE_SIZE, IntervalCache, IntervalDesigns)
 from observer_ros.core.estimators.protocol import (
-    checked_vector, Estimator, Prediction, SteadySteps)
+    Estimator, PinnedInitialState, Prediction, SteadySteps)
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.placement import place_observer
 from observer_ros.core.poles import to_discrete
@@ -194,7 +194,7 @@ def least_norm_consistent(c: np.ndarray, initial_state: np.ndarray, y: np.ndarra
     return initial_state + correction
 
 
-class ConstantGainEstimator(IntervalDesigns, SteadySteps, Estimator):
+class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Estimator):
     """
     The constant-gain estimator: one matrix ``G`` per sample interval, cached by interval.
 
@@ -298,16 +298,6 @@ class ConstantGainEstimator(IntervalDesigns, SteadySteps, Estimator):
     def _result(self, value) -> None:
         self._materialize()
         self._result_array = value
-
-    @property
-    def initial_state(self) -> Optional[np.ndarray]:
-        """The pinned initial estimate, or None when the first measurement initialises it."""
-        return None if self._pinned is None else self._pinned.copy()
-
-    @initial_state.setter
-    def initial_state(self, values) -> None:
-        self._pinned = (None if values is None else
-                        checked_vector('initial_state', values, self.n_states))
 
     def _initial_prior(self) -> tuple:
         if self._pinned is None:

@@ -242,6 +242,28 @@ class Estimator(ABC):
         """Design (or sample) for each interval now; raise what a sample would raise."""
 
 
+class PinnedInitialState:
+    """
+    ``initial_state`` of an estimator that may be pinned: kept checked in ``_pinned``.
+
+    None means the first measurement initialises the estimate (the time-varying filter then
+    starts from a zero prior). Mixed in before :class:`Estimator` by both engines.
+    """
+
+    _pinned: Optional[np.ndarray] = None
+    n_states: int
+
+    @property
+    def initial_state(self) -> Optional[np.ndarray]:
+        """The pinned initial estimate, or None when the first measurement initialises it."""
+        return None if self._pinned is None else self._pinned.copy()
+
+    @initial_state.setter
+    def initial_state(self, values) -> None:
+        self._pinned = (None if values is None else
+                        checked_vector('initial_state', values, self.n_states))
+
+
 class SteadySteps(ABC):
     """
     Fast paths an estimator may offer (a capability; the stream asks with ``isinstance``).

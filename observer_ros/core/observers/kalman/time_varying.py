@@ -42,7 +42,8 @@ import numpy as np
 from observer_ros.core.discretize import transition
 from observer_ros.core.errors import ConfigError, StampError
 from observer_ros.core.estimators.intervals import IntervalCache, IntervalDesigns
-from observer_ros.core.estimators.protocol import checked_vector, Estimator, Prediction
+from observer_ros.core.estimators.protocol import (
+    Estimator, PinnedInitialState, Prediction)
 from observer_ros.core.flat_matrices import covariance_from_flat
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.units import NANOSECONDS
@@ -66,7 +67,7 @@ def parse_initial_covariance(values, n_states: int) -> np.ndarray:
     return matrix
 
 
-class TimeVaryingKalman(IntervalDesigns, Estimator):
+class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, Estimator):
     """
     Kalman filter whose covariance follows the actual sample intervals.
 
@@ -125,16 +126,6 @@ class TimeVaryingKalman(IntervalDesigns, Estimator):
         self.reset()
 
     # --- state -----------------------------------------------------------------------------
-
-    @property
-    def initial_state(self) -> Optional[np.ndarray]:
-        """The pinned ``x0``, or None (zero is the prior then)."""
-        return None if self._pinned is None else self._pinned.copy()
-
-    @initial_state.setter
-    def initial_state(self, values) -> None:
-        self._pinned = (None if values is None else
-                        checked_vector('initial_state', values, self.n_states))
 
     @property
     def stamp_ns(self) -> Optional[int]:
