@@ -37,8 +37,10 @@ import sys
 
 import numpy as np
 from rosbags.rosbag2 import StoragePlugin, Writer
-from rosbags.typesys import get_typestore, Stores
 import yaml
+
+from bag_support import (
+    float64_array, FLOAT64_MULTI_ARRAY, JOINT_STATE, joint_state, serialize, TYPESTORE)
 
 GOLDEN_DIR = Path(__file__).resolve().parent / 'golden'
 CONFIG_DIR = Path(__file__).resolve().parents[1] / 'config'
@@ -73,9 +75,7 @@ EXTRA_CONFIGS = {
                               'plant': {'rate_hz': 100.0, 'initial_state': [0.5, 1.0]}},
 }
 
-_TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
-_MESSAGE_TYPES = {'joint_state': 'sensor_msgs/msg/JointState',
-                  'float64_multi_array': 'std_msgs/msg/Float64MultiArray'}
+_MESSAGE_TYPES = {'joint_state': JOINT_STATE, 'float64_multi_array': FLOAT64_MULTI_ARRAY}
 
 
 def config_path(name: str) -> Path:
@@ -160,34 +160,14 @@ def _write_config(name: str) -> None:
     path.write_text(yaml.safe_dump({'/**': {'ros__parameters': EXTRA_CONFIGS[name]}}))
 
 
-def _layout(kind: str, names, values):
-    """Return a rosbags message of ``kind`` carrying ``values``."""
-    types = _TYPESTORE.types
-    if kind == 'float64_multi_array':
-        layout = types['std_msgs/msg/MultiArrayLayout'](dim=[], data_offset=0)
-        return types['std_msgs/msg/Float64MultiArray'](layout=layout,
-                                                       data=np.array(values, dtype=float))
-    raise ValueError(kind)
-
-
-def _joint_state(stamp_ns: int, names, values, field: str):
-    types = _TYPESTORE.types
-    stamp = types['builtin_interfaces/msg/Time'](sec=int(stamp_ns // 10**9),
-                                                 nanosec=int(stamp_ns % 10**9))
-    arrays = {key: np.zeros(0) for key in ('position', 'velocity', 'effort')}
-    arrays[field] = np.array(values, dtype=float)
-    return types['sensor_msgs/msg/JointState'](
-        header=types['std_msgs/msg/Header'](stamp=stamp, frame_id=''), name=list(names),
-        **arrays)
-
-
 def _message(kind: str, field: str, names, stamp_ns: int, values):
+    """Return a rosbags message of ``kind`` carrying ``values`` (in ``field`` of a JointState)."""
     if kind == 'joint_state':
-        return _joint_state(stamp_ns, names, values, field)
-    return _layout(kind, names, values)
+        return joint_state(stamp_ns, names, **{'position': (), field: values})
+    return float64_array(values)
 
 
-def write_replay_bag(name: str) -> None:
+def write_replay_bag(name: str, directory: Path = GOLDEN_DIR / 'bags') -> None:
     """Simulate a config's plant open loop with random inputs; write ``y`` and ``u``."""
     from observer_ros.config import load_parameter_file, validate_parameters
     from observer_ros.core.simulation import PlantSimulator
@@ -201,29 +181,27 @@ def write_replay_bag(name: str) -> None:
     params = system.parameters
     model = system.model
     rng = np.random.default_rng(20261201)
-    path = GOLDEN_DIR / 'bags' / name.replace('.yaml', '')
+    path = directory / name.replace('.yaml', '')
     if path.exists():
         raise FileExistsError(path)
     start_ns = 1_000_000_000
     period_ns = plant.period_ns
     with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
         y_kind, u_kind = params['topics.y.type'], params['topics.u.type']
-        y_topic = writer.add_connection('/y', _MESSAGE_TYPES[y_kind], typestore=_TYPESTORE)
+        y_topic = writer.add_connection('/y', _MESSAGE_TYPES[y_kind], typestore=TYPESTORE)
         u_topic = None
         if model.n_inputs:
-            u_topic = writer.add_connection('/u', _MESSAGE_TYPES[u_kind], typestore=_TYPESTORE)
+            u_topic = writer.add_connection('/u', _MESSAGE_TYPES[u_kind], typestore=TYPESTORE)
         for index in range(REPLAY_SAMPLES):
             stamp = start_ns + index * period_ns
             u = rng.uniform(-1.0, 1.0, size=model.n_inputs)
             if u_topic is not None:
                 message = _message(u_kind, params['topics.u.field'], model.input_names,
                                    stamp, u)
-                writer.write(u_topic, stamp - 1000, bytes(_TYPESTORE.serialize_cdr(
-                    message, message.__msgtype__)))
+                writer.write(u_topic, stamp - 1000, serialize(message))
             y = simulator.measure()
             message = _message(y_kind, params['topics.y.field'], model.output_names, stamp, y)
-            writer.write(y_topic, stamp, bytes(_TYPESTORE.serialize_cdr(
-                message, message.__msgtype__)))
+            writer.write(y_topic, stamp, serialize(message))
             simulator.step(u, period_ns / 1e9)
 
 
