@@ -382,7 +382,7 @@ def test_every_tool_refuses_an_unknown_parameter_the_same_way(tmp_path):
     ([1e300, -1e300], 1e300, True), ([math.nan], 1e300, False), ([1e200], 1e160, False),
     ([3.0, 4.0], 4.0, True), ([3.0, 4.5], 4.0, False), ([], 1.0, True)])
 def test_the_limit_check_is_exact_for_every_limit(vector, limit, inside):
-    from observer_ros.core.streaming import within_limit
+    from observer_ros.core.rules import within_limit
     assert within_limit(np.array(vector, dtype=float), limit) is inside
 
 

@@ -47,8 +47,7 @@ from observer_ros.core.events import EventEngine, INPUT, MEASUREMENT, PREDICTION
 from observer_ros.core.rules import (
     ahead_of_clock, in_sequence, rows_within, ValueLimits, within_limit)
 
-__all__ = ['EstimateSample', 'EventStream', 'ReplayArrays', 'ValueLimits', 'replay_arrays',
-           'within_limit']
+__all__ = ['EstimateSample', 'EventStream', 'ReplayArrays', 'ValueLimits', 'replay_arrays']
 
 
 class EventStream:

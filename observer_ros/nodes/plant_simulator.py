@@ -55,8 +55,8 @@ from rclpy.task import Future
 from rosgraph_msgs.msg import Clock as ClockMessage
 
 from observer_ros.config import PLANT
+from observer_ros.core.rules import within_limit
 from observer_ros.core.simulation import PlantSimulator
-from observer_ros.core.streaming import within_limit
 from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import MalformedMessage, ns_to_stamp, VectorCodec

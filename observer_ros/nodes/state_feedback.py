@@ -51,7 +51,7 @@ from observer_ros.config import FEEDBACK
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.feedback_law import IntegralAction, StateFeedbackLaw
 from observer_ros.core.placement import preload_methods
-from observer_ros.core.streaming import within_limit
+from observer_ros.core.rules import within_limit
 from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import LATEST_STAMP_NS, MalformedMessage, VectorCodec
