@@ -173,6 +173,79 @@ class DisturbanceModel:
         """Return the matched input disturbances."""
         return tuple(d for d in self.disturbances if d.entry == 'input')
 
+    def augmented_state(self, plant_state) -> np.ndarray:
+        """
+        Return a state of the plant as one of the augmented model: disturbance states 0.
+
+        Parameters
+        ----------
+        plant_state : array_like, shape (n,)
+
+        Returns
+        -------
+        numpy.ndarray, shape (n + n_d,)
+
+        """
+        return np.concatenate([plant_state, np.zeros(self.n_disturbance_states)])
+
+    def augmented_process_noise(self, plant_noise, disturbance_noise=None) -> np.ndarray:
+        """
+        Return the process noise of the augmented model (:func:`augmented_noise`).
+
+        Parameters
+        ----------
+        plant_noise : array_like, shape (n, n)
+            ``Q`` of the plant states.
+        disturbance_noise : sequence of float, shape (n_d,), optional
+            The disturbance states' diagonal; None: zeros (the generators run without
+            noise, as the plant simulator runs them).
+
+        Returns
+        -------
+        numpy.ndarray, shape (n + n_d, n + n_d)
+
+        Raises
+        ------
+        ConfigError
+            ``disturbance_noise``: a wrong count or a negative value.
+
+        """
+        n_d = self.n_disturbance_states
+        noise = np.zeros(n_d) if disturbance_noise is None else disturbance_noise
+        return augmented_noise(plant_noise, noise, n_d)
+
+    def without_generator_modes(self, poles) -> np.ndarray:
+        """
+        Return closed-loop poles of the augmented model without the generators' modes.
+
+        The generators are exogenous (nothing feeds back into them), so their modes appear
+        in the closed loop of the augmented model unchanged; the loop of the real plant and
+        the observer-controller has the others. Each mode takes the pole nearest it.
+
+        Parameters
+        ----------
+        poles : array_like of complex, shape (k,)
+
+        Returns
+        -------
+        numpy.ndarray of complex, shape (k - n_d,)
+
+        Examples
+        --------
+        >>> import observer_ros.core as oc
+        >>> motor = oc.StateSpaceModel.from_flat([0, 1, 0, -2], [0, 4], [1, 0])
+        >>> load = oc.augment(motor, ['constant'])
+        >>> load.without_generator_modes([-3.0, 1e-12, -5.0]).real.tolist()
+        [-3.0, -5.0]
+
+        """
+        n = self.plant.n_states
+        remaining = list(np.asarray(poles, dtype=complex))
+        for mode in np.linalg.eigvals(self.augmented.a[n:, n:]):
+            if remaining:
+                remaining.pop(int(np.argmin(np.abs(np.array(remaining) - mode))))
+        return np.array(remaining)
+
 
 def _generator(waveform: str, frequency: float, dt: float) -> np.ndarray:
     if waveform == 'constant':

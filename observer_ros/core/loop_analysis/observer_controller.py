@@ -170,7 +170,8 @@ def _cross_check(model, realization, feedback_gain, result) -> None:
 
 
 def controller_transfer_function(model: StateSpaceModel, realization: ObserverRealization,
-                                 feedback_gain: np.ndarray) -> ControllerTransferFunction:
+                                 feedback_gain: np.ndarray,
+                                 cross_check: bool = True) -> ControllerTransferFunction:
     """
     Compute the observer-controller transfer function ``G_oc = -U / Y`` (SISO).
 
@@ -197,6 +198,10 @@ def controller_transfer_function(model: StateSpaceModel, realization: ObserverRe
         The observer (``design.realization`` of any observer design).
     feedback_gain : numpy.ndarray, shape (1, n)
         ``K``.
+    cross_check : bool
+        Compare with the Diophantine solution (above). False for a model whose modes are
+        not all controllable by construction (a plant augmented with disturbance
+        generators), where the Diophantine equation does not apply.
 
     Returns
     -------
@@ -224,7 +229,8 @@ def controller_transfer_function(model: StateSpaceModel, realization: ObserverRe
             f'{model.n_inputs} inputs and {model.n_outputs} outputs', parameter='model')
     a_c, b_c, c_c, d_c = controller_state_space(realization, feedback_gain)
     result = from_zpk(*siso_zpk(a_c, b_c, -c_c, -d_c), model.is_discrete)
-    _cross_check(model, realization, feedback_gain, result)
+    if cross_check:
+        _cross_check(model, realization, feedback_gain, result)
     if result.unstable:
         warnings.warn(
             f'the observer-controller is unstable on its own (poles '

@@ -311,10 +311,16 @@ def plugin_failures() -> dict:
     return registry.failures()
 
 
-def make_estimator(design: ObserverDesign, initial_state=None, method: str = 'auto',
-                   interval_resolution_ns: int = 0, **options):
+def make_estimator(design: ObserverDesign, initial_state=None, interval_resolution_ns: int = 0,
+                   *, values: Optional[Mapping[str, Any]] = None, **arguments):
     """
     Build the runtime estimator of an observer design, through its registered type.
+
+    The one way an estimator is made: the parameter configuration
+    (:class:`observer_ros.config.ObserverSetup`) calls it too. For a continuous model the
+    estimator places the observer's poles again for each new sample interval, as
+    ``exp(lambda dt)``, which keeps jittered stamps exact (cached per interval, rounded to
+    ``interval_resolution_ns``).
 
     Parameters
     ----------
@@ -322,13 +328,16 @@ def make_estimator(design: ObserverDesign, initial_state=None, method: str = 'au
         From any design function; its ``kind`` names the observer type.
     initial_state : array_like, shape (n,), optional
         Pins the first estimate (see :class:`~observer_ros.core.estimators.Estimator`).
-    method : str
-        Placement method of the per-interval designs (pole-placed types).
     interval_resolution_ns : int
         Round intervals to multiples of this before designing them (0: exact).
-    **options
-        Further arguments of the type (``time_varying=True``, ``initial_covariance=...``
-        for ``kalman``).
+    values : mapping, optional
+        The type's arguments by name, checked already (what
+        :meth:`ObserverType.values` returns, or what the parameter schema checked): taken as
+        they are, not checked again.
+    **arguments
+        Or the type's arguments as given (``method='lsq'``; ``time_varying=True``,
+        ``initial_covariance=...`` for ``kalman``), checked here; the missing ones take
+        their defaults.
 
     Returns
     -------
@@ -339,7 +348,9 @@ def make_estimator(design: ObserverDesign, initial_state=None, method: str = 'au
     Raises
     ------
     ConfigError
-        ``type``: the design's kind is no registered observer type; or a bad option.
+        ``type``: the design's kind is no registered observer type; or a bad argument.
+    TypeError
+        Both ``values`` and ``arguments`` given.
 
     Examples
     --------
@@ -353,7 +364,10 @@ def make_estimator(design: ObserverDesign, initial_state=None, method: str = 'au
 
     """
     kind = observer_type(design.kind)
-    values = kind.values({'method': method, **options})
+    if values is None:
+        values = kind.values(arguments)
+    elif arguments:
+        raise TypeError('make_estimator: give the checked values or the arguments, not both')
     return kind.estimator(design, values, initial_state, interval_resolution_ns)
 
 

@@ -27,7 +27,6 @@ propagates its covariance over each actual interval from ``initial_covariance``.
 """
 
 from observer_ros.core.arguments import Argument, array, BOOL
-from observer_ros.core.disturbances import augmented_noise
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.estimators.constant_gain import ConstantGainEstimator
 from observer_ros.core.flat_matrices import covariance_from_flat
@@ -85,8 +84,8 @@ def augmented_process_noise(model, values, disturbance) -> list:
                           f'the disturbance states {states}), got none')
     plant_q = covariance_from_flat('process_noise', values['process_noise'],
                                    disturbance.plant.n_states)
-    return augmented_noise(plant_q, values['disturbance_noise'],
-                           disturbance.n_disturbance_states).ravel().tolist()
+    return disturbance.augmented_process_noise(
+        plant_q, values['disturbance_noise']).ravel().tolist()
 
 
 def _design(model, values, disturbance=None):
