@@ -107,15 +107,15 @@ def topic_names(model, topic: str) -> tuple:
     return tuple(base)
 
 
-def _on(nodes: tuple, argument: Argument, prefix: str = '',
+def _on(nodes: tuple, argument: Argument, name: str = '',
         dynamic: bool = None) -> ParameterSpec:
     """
-    Return ``argument`` as the parameter ``prefix + name`` declared by ``nodes``.
+    Return ``argument`` as the parameter ``name`` (default: its own) declared by ``nodes``.
 
     ``dynamic`` defaults to whether the argument is tunable.
     """
     values = {field.name: getattr(argument, field.name) for field in fields(Argument)}
-    values['name'] = prefix + argument.name
+    values['name'] = name or argument.name
     return ParameterSpec(**values, nodes=nodes,
                          dynamic=argument.tunable if dynamic is None else dynamic)
 
@@ -329,6 +329,15 @@ DIAGNOSTICS = (
 )
 
 
+#: The settings every vector topic has: ``topics.<topic>.<setting>``.
+TOPIC_SETTINGS = ('type', 'field', 'limit')
+
+
+def topic_parameter(topic: str, setting: str) -> str:
+    """Return the parameter of one of a topic's :data:`TOPIC_SETTINGS`: ``topics.y.limit``."""
+    return f'topics.{topic}.{setting}'
+
+
 def _topic_parameters(topic: str, names: str, nodes: tuple) -> tuple:
     limit = COVARIANCE_LIMIT if names.endswith('pair') else VALUE_LIMIT
     entries = {'state pair': 'entries named "<state>,<state>" (row-major)',
@@ -336,23 +345,29 @@ def _topic_parameters(topic: str, names: str, nodes: tuple) -> tuple:
                'nis': 'one entry named "nis"'}.get(names, f'the model {names} names as joint '
                                                           f'names')
     return (
-        _spec(f'topics.{topic}.type', STRING, 'joint_state',
+        _spec(topic_parameter(topic, 'type'), STRING, 'joint_state',
               f'Message type of {topic}: joint_state (sensor_msgs/JointState, {entries}) | '
               f'float64_multi_array (std_msgs/Float64MultiArray, unstamped'
               + (', layout n x n' if names.endswith('pair') else '') + ').', nodes,
               choices=MESSAGE_TYPES),
-        _spec(f'topics.{topic}.field', STRING, 'position',
+        _spec(topic_parameter(topic, 'field'), STRING, 'position',
               f'JointState field holding {topic}: position | velocity | effort.', nodes,
               choices=JOINT_STATE_FIELDS),
-        _spec(f'topics.{topic}.limit', DOUBLE, limit,
+        _spec(topic_parameter(topic, 'limit'), DOUBLE, limit,
               f'Largest magnitude of a value on {topic}: a received message with a larger '
               f'value is dropped and counted (out_of_range), and no larger value is published '
               f'(1e-300 ... 1e300).', nodes, low=1e-300, high=1e300),
     )
 
 
+#: The observer types' arguments, each bound to its parameter here, once:
+#: ``{argument: parameter}`` (``poles`` is ``observer.poles``).
+OBSERVER_ARGUMENTS = {argument.name: f'observer.{argument.name}'
+                      for argument in observer_arguments()}
+
 PARAMETERS = (MODEL + OBSERVER_STREAM
-              + tuple(_on(_OBS, argument, 'observer.') for argument in observer_arguments())
+              + tuple(_on(_OBS, argument, OBSERVER_ARGUMENTS[argument.name])
+                      for argument in observer_arguments())
               + FEEDBACK_PARAMETERS + LIFECYCLE_PARAMETERS + PLANT_PARAMETERS + DIAGNOSTICS
               + tuple(spec for role in TOPIC_ROLES for spec in _topic_parameters(*role)))
 
