@@ -76,7 +76,7 @@ def jittered_run(system, samples: int, seed: int) -> tuple:
     stamps = np.concatenate([[0], np.cumsum(steps)])
     simulator = PlantSimulator(model, np.zeros(model.n_states), plant.process_noise,
                                plant.measurement_noise, seed)
-    filter_ = make_estimator(system.observer, time_varying=True)
+    filter_ = make_estimator(system.observer.design, time_varying=True)
     errors, traces = [], []
     u = np.zeros(model.n_inputs)
     for k, stamp in enumerate(stamps.tolist()):
@@ -99,7 +99,7 @@ def run(smoke: bool, figures) -> Section:
                       'below the Kalman MSE')
     system = validate_parameters(load_parameter_file(str(CONFIG_DIR / 'kalman_noisy.yaml')))
     data = simulate(system, samples + BURN_IN, seed=11)
-    kalman = system.make_estimator()
+    kalman = system.observer.make_estimator()
     kalman_mse = mse(kalman, *data)
     trace = float(np.trace(kalman.covariance))
     speeds = np.geomspace(1.0, 300.0, 5 if smoke else 14)

@@ -68,7 +68,7 @@ def run(smoke: bool, figures) -> Section:
                          f'{samples / seconds:,.0f}'])
             rows.append([f'... and write the x_hat bag ({storage})',
                          f'{seconds + writing:.2f}', f'{samples / (seconds + writing):,.0f}'])
-    stream = EventStream(system.make_estimator(), int(1e9))
+    stream = EventStream(system.observer.make_estimator(), int(1e9))
     replayed, ours = timed(lambda: stream.replay(stamps, inputs, stamps, outputs))
     rates['estimator part'] = samples / ours
     step = stream.estimator.last_step.g

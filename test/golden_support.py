@@ -113,7 +113,7 @@ def closed_loop_record(name: str) -> dict:
         extra = None
         try:
             system = loop.system
-            if system.observer.kind == 'kalman':
+            if system.observer.design.kind == 'kalman':
                 extra = TopicRecorder(system, ('x_hat_covariance', 'nis'),
                                       node_name='golden_recorder', context=context)
                 loop.executor.add_node(extra)

@@ -402,7 +402,7 @@ def test_discrete_designs_raise_no_false_alarm(kind, dt):
 @pytest.mark.parametrize('path', sorted(CONFIG_DIR.glob('*.yaml')), ids=lambda p: p.name)
 def test_shipped_configs_have_no_mismatch_note(path):
     system = config.validate_parameters(config.load_parameter_file(str(path)))
-    assert not [note for note in system.notes if 'Diophantine' in note]
+    assert not [note for note in system.loop.notes if 'Diophantine' in note]
 
 
 def chen_config(tmp_path, poles, gain):

@@ -57,7 +57,7 @@ def _run(system, samples, law=None, u_open=lambda t: 0.0):
     simulator = PlantSimulator(system.model, plant.initial_state, plant.process_noise,
                                plant.measurement_noise, plant.seed, plant.input_limits,
                                plant.disturbance, plant.disturbance_time)
-    estimator = system.make_estimator()
+    estimator = system.observer.make_estimator()
     times, truth, estimates = [], [], []
     u = np.zeros(system.model.n_inputs)
     for k in range(samples):
@@ -82,10 +82,10 @@ def test_load_estimate_converges_inside_the_designed_envelope(kind):
     before = times < STEP_TIME
     assert np.abs(error[before]).max() < 1e-9  # exact start: no error before the load
     # The designed error dynamics of one period: ||e_k|| <= cond(V) rho^k ||e_0||.
-    step = system.make_estimator().design.step(PERIOD_NS)
+    step = system.observer.make_estimator().design.step(PERIOD_NS)
     rho = np.abs(step.poles).max()
     if kind != 'kalman':  # the placed poles, sampled; Kalman: the DARE filter of the period
-        slowest = system.observer.achieved_poles.real.max()
+        slowest = system.observer.design.achieved_poles.real.max()
         assert rho == pytest.approx(np.exp(slowest * PERIOD_NS / NANOSECONDS), rel=1e-6)
     _, vectors = np.linalg.eig(step.error)
     constant = np.linalg.cond(vectors)
@@ -155,7 +155,7 @@ def test_disturbance_rejection_regulates_the_position_under_the_load():
     # With rejection the load is cancelled: q back to 0 (below 1e-6 after settling).
     assert np.abs(results['rejecting'][-100:, 0]).max() < 1e-6
     # Without it the offset is the predicted one: x_ss = -(A - B K)^-1 B load.
-    plant = plain.plant_model
+    plant = plain.augmentation.plant
     closed = plant.a - plant.b @ plain.feedback.design.gain
     predicted = -np.linalg.solve(closed, plant.b[:, 0] * LOAD)
     assert results['plain'][-1, 0] == pytest.approx(predicted[0], rel=1e-6)
@@ -180,8 +180,8 @@ def test_shipped_config_and_design_report(tmp_path, capsys):
     out = capsys.readouterr().out
     assert 'Disturbances: 1 state after the 2 plant states' in out
     again = validate_parameters(load_parameter_file(str(written)), strict=True)
-    assert again.observer.gain.shape == (3, 1)  # the gain covers the load state
-    np.testing.assert_allclose(again.observer.gain, system.observer.gain, rtol=1e-12)
+    assert again.observer.design.gain.shape == (3, 1)  # the gain covers the load state
+    np.testing.assert_allclose(again.observer.design.gain, system.observer.design.gain, rtol=1e-12)
     assert 'load: constant at input effort, states load (x_hat entries 2)' in out
     assert 'disturbance estimates converge like the slowest observer pole [-10]' in out
     assert 'K_d (disturbance rejection' in out

@@ -73,7 +73,7 @@ def test_the_core_imports_no_ros_and_nothing_outside_the_core():
 
 def test_the_parameter_schema_imports_no_ros():
     modules, _, ros = imported_by(observer_ros.config)
-    assert 'observer_ros.config.system' in modules
+    assert 'observer_ros.config.sections' in modules
     assert ros == []
 
 

@@ -177,9 +177,9 @@ def test_nis_lies_in_its_chi_square_band_only_for_the_right_noise(r_scale, insid
 def test_the_configured_type_runs_the_time_varying_filter_through_the_stream():
     params = load_parameter_file(str(CONFIG_DIR / 'kalman_time_varying.yaml'))
     system = validate_parameters(params)
-    assert isinstance(system.make_estimator(), TimeVaryingKalman)
+    assert isinstance(system.observer.make_estimator(), TimeVaryingKalman)
     steady = validate_parameters(dict(params, **{'observer.time_varying': False}))
-    assert not isinstance(steady.make_estimator(), TimeVaryingKalman)
+    assert not isinstance(steady.observer.make_estimator(), TimeVaryingKalman)
     rng = np.random.default_rng(2)
     stamps = jittered_stamps(200, rng)
     live = system.make_stream()

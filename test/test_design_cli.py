@@ -103,7 +103,7 @@ def test_seed004_error_spec_accepts_poles_at_or_left_of_bound(tmp_path):
     with pytest.raises(ConfigError, match=r'observer\.poles.*slower.*-1\.3815'):
         validate_parameters(params)
     params['observer.poles'] = []
-    generated = validate_parameters(params).observer.requested_poles
+    generated = validate_parameters(params).observer.design.requested_poles
     assert generated.real.max() == pytest.approx(np.log(1e-3) / 5.0)
 
 
@@ -180,7 +180,7 @@ def test_integers_are_accepted_from_users():
     system = validate_parameters({'model.A': [0, 1, 0, 0], 'model.B': [0, 1],
                                   'model.C': [1, 0], 'observer.poles': [-5, -6]})
     np.testing.assert_allclose(
-        np.sort(np.linalg.eigvals(system.model.a - system.observer.gain @ system.model.c)),
+        np.sort(np.linalg.eigvals(system.model.a - system.observer.design.gain @ system.model.c)),
         [-6, -5])
 
 

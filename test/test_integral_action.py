@@ -93,7 +93,7 @@ def predicted_output(system, reference, offset):
     ``x_hat = G_x x_hat + G_u u + G_y C x``.
     """
     model, period_ns = system.model, system.plant.period_ns
-    step = system.make_estimator().design.step(period_ns)
+    step = system.observer.make_estimator().design.step(period_ns)
     n, m = model.n_states, model.n_inputs
     g_x, g_u, g_y = step.g[:n, :n], step.g[:n, n:n + m], step.g[:n, n + m:]
     k, feedforward = system.feedback.design.gain, system.feedback.reference_gain @ reference
@@ -116,7 +116,7 @@ def test_design_places_the_augmented_poles():
     closed = a - b @ np.hstack([integral.gain, -integral.integral_gain])
     assert np.allclose(np.sort(np.linalg.eigvals(closed).real), [-9, -8, -6])
     assert system.feedback.reference_gain is None  # the servo form: u = -K x_hat + K_i z
-    assert np.allclose(system.closed_loop_poles.real, [-9, -8, -6, -35, -30])
+    assert np.allclose(system.loop.closed_loop_poles.real, [-9, -8, -6, -35, -30])
 
 
 def test_a_step_is_tracked_without_offset_under_a_constant_load():

@@ -118,7 +118,7 @@ def test_joint_states_take_state_names_or_indices():
         'full_order', **{'observer.joint_names': ['shoulder', 'copy'],
                          'observer.joint_position_states': ['q', '0'],
                          'observer.joint_velocity_states': ['q_dot', '1']}))
-    selection = system.joint_states
+    selection = system.observer.joint_states
     assert (selection.position, selection.velocity, selection.effort) == ((0, 0), (1, 1), ())
     raw = JointStatesEncoder(selection).encode(3_000_000_001, np.array([1.25, -4.0]))
     message = deserialize_message(raw, JointState)
@@ -242,7 +242,7 @@ def test_replay_of_joint_states_reports_the_velocity_rmse(tmp_path, storage, cap
     file.write_text(yaml.safe_dump({'/**': {'ros__parameters': section}}))
     result = replay_bag(tmp_path / 'robot', file, y_topic='/joint_states')
     assert len(result.stamps_ns) == 400 and result.counters.get('no_input', 0) == 0
-    settle = settling_time(result.system.observer.achieved_poles)
+    settle = settling_time(result.system.observer.design.achieved_poles)
     reference = StateReference.parse('q_dot=/joint_states:velocity:shoulder')
     rmse, count = reference_rmse(result, reference, settle)
     late = result.stamps_ns >= result.stamps_ns[0] + settle * 1e9
@@ -250,7 +250,7 @@ def test_replay_of_joint_states_reports_the_velocity_rmse(tmp_path, storage, cap
     assert count == late.sum() and rmse == pytest.approx(direct, rel=1e-12)
     # The swing's acceleration -1.6 sin(2 t) drives the velocity error through
     # (s + l1) / (s^2 + l1 s + l2) of the continuous design: its RMS is what replay reports.
-    l1, l2 = np.ravel(result.system.observer.gain)
+    l1, l2 = np.ravel(result.system.observer.design.gain)
     s = 2.0j
     predicted = 1.6 * abs((s + l1) / (s * s + l1 * s + l2)) / np.sqrt(2.0)
     assert rmse == pytest.approx(predicted, rel=0.1), (rmse, predicted)

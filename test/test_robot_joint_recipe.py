@@ -73,12 +73,12 @@ def test_recipe_config_is_the_documented_joint():
     system = validate_parameters(load_parameter_file(str(CONFIG_DIR / CONFIG)), strict=True)
     assert system.model.state_names == ('q', 'q_dot', 'load')
     assert system.parameters['topics.u.type'] == 'float64_multi_array'
-    plant = system.plant_model
+    plant = system.augmentation.plant
     # J = 0.25 kg m^2, b = 0.5 N m s/rad: q_dot' = -(b / J) q_dot + u / J.
     assert plant.a.tolist() == [[0.0, 1.0], [0.0, -2.0]] and plant.b.ravel().tolist() == [0, 4]
     # The load is a state of the simulated plant (it enters through B like the effort).
     assert system.plant.disturbance.tolist() == [LOAD] and system.plant.input_offset is None
-    joints = system.joint_states
+    joints = system.observer.joint_states
     assert joints.names == ('shoulder',)
     assert (joints.position, joints.velocity, joints.effort) == ((0,), (1,), (2,))
 
@@ -88,7 +88,7 @@ def test_integral_action_with_a_load_model_feeds_back_k_and_zero_on_the_estimate
     feedback = system.feedback
     integral = feedback.integral
     # Designed on the plant (n = 2), not on the augmented model with the load state.
-    a, b = augmented_pair(system.plant_model, integral.outputs)
+    a, b = augmented_pair(system.augmentation.plant, integral.outputs)
     closed = a - b @ np.hstack([integral.gain, -integral.integral_gain])
     assert np.allclose(np.sort(np.linalg.eigvals(closed).real), [-9.0, -8.0, -6.0])
     np.testing.assert_allclose(integral.gain, [[43.5, 5.25]], rtol=1e-9)  # README, Recipe

@@ -44,12 +44,12 @@ def test_estimate_converges_at_the_designed_rate_and_loop_is_stable(config):
     assert len(stamps) == 400
     times = (stamps - stamps[0]) / 1e9
     error = np.linalg.norm(truth - estimate, axis=1)
-    poles = system.observer.achieved_poles
+    poles = system.observer.design.achieved_poles
     rate = decay_rate(poles, system.model.dt)
     settle = settling_time(poles, system.model.dt)
-    if system.observer.kind == 'kalman':
+    if system.observer.design.kind == 'kalman':
         # Noisy plant: the error settles at the filter's noise floor.
-        floor = np.sqrt(np.trace(system.make_estimator().design.step(
+        floor = np.sqrt(np.trace(system.observer.make_estimator().design.step(
             system.plant.period_ns).covariance))
         late = error[times > settle]
         assert np.sqrt(np.mean(late ** 2)) < 2.0 * floor
@@ -64,7 +64,7 @@ def test_estimate_converges_at_the_designed_rate_and_loop_is_stable(config):
     # noisy plant).
     norms = np.linalg.norm(truth, axis=1)
     assert norms[-40:].max() < 0.25 * norms.max()
-    assert np.all(system.closed_loop_poles.real < 0)
+    assert np.all(system.loop.closed_loop_poles.real < 0)
     # The node computed exactly what the core computes from the same samples.
     offline_stamps, offline = offline_estimates(system, recorder)
     assert np.array_equal(offline_stamps, arrays['x_hat'][0])

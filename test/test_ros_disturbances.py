@@ -66,7 +66,7 @@ def test_load_estimate_on_x_hat_and_rejection_over_dds(tmp_path):
 def test_without_rejection_the_load_leaves_the_predicted_offset():
     extra = [Parameter('feedback.disturbance_rejection', value=False)]
     system, _, arrays, _ = run_lockstep('dc_motor_load.yaml', samples=SAMPLES, extra=extra)
-    plant = system.plant_model
+    plant = system.augmentation.plant
     closed = plant.a - plant.b @ system.feedback.design.gain
     predicted = -np.linalg.solve(closed, plant.b[:, 0] * LOAD)
     assert abs(arrays['x_true'][1][-1, 0] - predicted[0]) < 1e-4 * abs(predicted[0])

@@ -89,7 +89,7 @@ def drive(driver, executor, node, samples, expect_estimates):
 
 def expected_estimates(system, samples):
     """Run a fresh estimator over ``samples`` (what a freshly started observer publishes)."""
-    stream = EventStream(system.make_estimator(), 10**9)
+    stream = EventStream(system.observer.make_estimator(), 10**9)
     estimates = []
     for stamp, u, y in samples:
         stream.add_input(stamp, u)

@@ -145,7 +145,7 @@ def test_malformed_measurements_are_dropped_and_counted(observer_setup):
     assert observer.counters()['malformed'] == len(bad)
     assert len(driver.estimates) == len(samples)
     # The estimates are those of the valid samples alone, bit for bit, and finite.
-    stream = EventStream(system.make_estimator(), 10**9)
+    stream = EventStream(system.observer.make_estimator(), 10**9)
     expected = []
     for stamp, u, y in samples:
         stream.add_input(stamp, u)
@@ -220,7 +220,7 @@ def test_rejected_parameter_change_keeps_everything(observer_setup, case):
         assert observer.get_parameter(name.replace('__', '.')).value == value
     assert observer.stream.estimator.design is design_before
     # Estimation goes on with the old gains.
-    stream = EventStream(system.make_estimator(), 10**9)
+    stream = EventStream(system.observer.make_estimator(), 10**9)
     expected = []
     for stamp, u, y in samples:
         stream.add_input(stamp, u)
@@ -244,14 +244,14 @@ def test_accepted_parameter_change_has_no_jump(observer_setup):
     # The next estimate is the new gains' step from the current estimate: no restart, no jump.
     params = dict(system.parameters, **{'observer.poles': new_poles})
     new_system = validate_parameters(params)
-    g = new_system.make_estimator().step_matrices(PERIOD_NS).g
+    g = new_system.observer.make_estimator().step_matrices(PERIOD_NS).g
     stamp, u, y = samples[5]
     send(driver, executor, stamp, u, y, 6)
     n = 2
     expected = g[:n] @ np.concatenate([previous, samples[4][1], y])
     got = np.array(driver.estimates[-1].position)
     np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)
-    old_g = system.make_estimator().step_matrices(PERIOD_NS).g
+    old_g = system.observer.make_estimator().step_matrices(PERIOD_NS).g
     assert not np.allclose(old_g[:n] @ np.concatenate([previous, samples[4][1], y]), got)
     assert observer.counters()['restart_gap'] == 0
     # The interval resolution changes at run time too, without touching the estimate.
@@ -357,7 +357,7 @@ def test_best_effort_publisher_and_reset_service(observer_setup):
     assert observer.counters()['resets'] == 1
     # After the reset the estimator starts again from observer.initial_state at the next
     # sample, exactly as a fresh one does.
-    fresh = system.make_estimator()
+    fresh = system.observer.make_estimator()
     stamp, u, y = samples[3]
     send(driver, executor, stamp, u, y, 4)
     expected = fresh.update(stamp, y, u)

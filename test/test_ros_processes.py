@@ -72,8 +72,8 @@ def test_node_without_its_section_names_the_missing_parameter(tmp_path):
 def test_real_time_plant_and_observer_processes(config):
     path = str(CONFIG_DIR / config)
     system = validate_parameters(load_parameter_file(path))
-    settle = settling_time(system.observer.achieved_poles, system.model.dt)
-    rate = decay_rate(system.observer.achieved_poles, system.model.dt)
+    settle = settling_time(system.observer.design.achieved_poles, system.model.dt)
+    rate = decay_rate(system.observer.design.achieved_poles, system.model.dt)
     duration = settle + 1.0
     # Pinned at zero: the first measurement alone would already give this plant's state.
     pinned = f'observer.initial_state:={[0.0] * system.model.n_states}'

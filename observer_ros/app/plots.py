@@ -80,7 +80,7 @@ def write_run_report(directory: str, name: str, system, truth_stamps, truth, sta
     ----------
     directory, name : str
         Where the PNG goes (``name`` without extension).
-    system : observer_ros.config.System
+    system : observer_ros.config.Configuration
         Gives the state names and the designed poles (settling time, decay envelope).
     truth_stamps, truth, stamps, estimates : numpy.ndarray
         Both series; they are compared at the stamps they share.
@@ -100,7 +100,7 @@ def write_run_report(directory: str, name: str, system, truth_stamps, truth, sta
     if not len(common):
         raise ValueError('x_true and x_hat share no stamp: nothing to compare')
     dt = system.model.dt
-    poles = system.observer.achieved_poles
+    poles = system.observer.design.achieved_poles
     report = error_report(common, truth, estimates, system.model.state_names,
                           settling_time(poles, dt))
     os.makedirs(directory, exist_ok=True)

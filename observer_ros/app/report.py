@@ -16,7 +16,7 @@
 
 import numpy as np
 
-from observer_ros.config.system import System
+from observer_ros.config import Configuration
 from observer_ros.core.analysis import controllability, observability
 from observer_ros.core.errors import DesignError
 from observer_ros.core.loop_analysis.diophantine import diophantine_controller
@@ -28,28 +28,28 @@ def _rows(matrix) -> list:
     return np.atleast_2d(np.asarray(matrix, dtype=float)).tolist()
 
 
-def _diophantine(system: System):
+def _diophantine(system: Configuration):
     model, observer, feedback = system.model, system.observer, system.feedback
-    if observer is None or feedback is None or system.controller_tf is None:
+    if observer is None or feedback is None or system.loop.controller_tf is None:
         return None
     try:
         return diophantine_controller(model, feedback.design.requested_poles,
-                                      observer.requested_poles)
+                                      observer.design.requested_poles)
     except DesignError:
         return None
 
 
-def _sampled_step(system: System):
+def _sampled_step(system: Configuration):
     """Runtime step matrices at the plant rate (constant-G estimators of continuous models)."""
     if system.observer is None:
         return None
-    estimator = system.make_estimator()
+    estimator = system.observer.make_estimator()
     design = getattr(estimator, 'design', None)
     return None if design is None else design.step(system.plant.period_ns)
 
 
-def _target(system: System, disturbance) -> str:
-    plant = system.plant_model
+def _target(system: Configuration, disturbance) -> str:
+    plant = system.augmentation.plant
     if disturbance.entry == 'input':
         return f'input {plant.input_names[disturbance.index]}'
     if disturbance.entry == 'output':
@@ -57,13 +57,14 @@ def _target(system: System, disturbance) -> str:
     return f'column {disturbance.index} of model.disturbance_matrix'
 
 
-def _disturbance_rows(system: System) -> list:
+def _disturbance_rows(system: Configuration) -> list:
     """Return one JSON row per disturbance: waveform (as ``kind``), entry, states, modes."""
-    if system.disturbance is None:
+    transform = system.augmentation.disturbance
+    if transform is None:
         return []
     rows = []
     model = system.model
-    for disturbance in system.disturbance.disturbances:
+    for disturbance in transform.disturbances:
         block = slice(disturbance.first_state, disturbance.first_state + disturbance.n_states)
         rows.append({'name': disturbance.name, 'kind': disturbance.waveform,
                      'entry': _target(system, disturbance),
@@ -74,20 +75,20 @@ def _disturbance_rows(system: System) -> list:
     return rows
 
 
-def _slowest(system: System):
+def _slowest(system: Configuration):
     """Return the slowest achieved observer pole (the disturbance estimates' rate)."""
-    poles = np.asarray(system.observer.achieved_poles, dtype=complex)
+    poles = np.asarray(system.observer.design.achieved_poles, dtype=complex)
     if system.model.is_discrete:
         return poles[np.argmax(np.abs(poles))]
     return poles[np.argmax(poles.real)]
 
 
-def _type_items(system: System) -> tuple:
+def _type_items(system: Configuration) -> tuple:
     """Return the observer type's own report fields (``ReportItem`` of each)."""
-    return tuple(system.kind.report(system.observer))
+    return tuple(system.observer.kind.report(system.observer.design))
 
 
-def design_summary(system: System) -> dict:
+def design_summary(system: Configuration) -> dict:
     """
     Summarize a validated system as plain JSON types.
 
@@ -112,12 +113,13 @@ def design_summary(system: System) -> dict:
             'controllability_condition': ctrb.condition_number,
             'uncontrollable_modes': pole_pairs(ctrb.lost_modes),
         },
-        'notes': list(system.notes),
+        'notes': list(system.loop.notes),
     }
-    if system.disturbance is not None:
-        summary['model']['plant_states'] = system.plant_model.n_states
+    disturbed = system.augmentation.disturbance is not None
+    if disturbed:
+        summary['model']['plant_states'] = system.augmentation.plant.n_states
         summary['disturbances'] = _disturbance_rows(system)
-    observer = system.observer
+    observer = None if system.observer is None else system.observer.design
     if observer is not None:
         summary['observer.type'] = observer.kind
         summary['observer.gain'] = _rows(observer.gain)
@@ -126,7 +128,7 @@ def design_summary(system: System) -> dict:
         summary['observer.method'] = observer.method
         summary['observer.residual'] = observer.residual
         summary['observer.order'] = observer.order
-        if system.disturbance is not None:
+        if disturbed:
             summary['observer.slowest_pole'] = pole_pairs([_slowest(system)])[0]
         for item in _type_items(system):
             summary[f'observer.{item.key}'] = (item.value if np.ndim(item.value) == 0
@@ -152,9 +154,9 @@ def design_summary(system: System) -> dict:
             summary['feedback.integral_gain'] = _rows(feedback.integral.integral_gain)
             summary['feedback.integral_outputs'] = [
                 system.model.output_names[i] for i in feedback.integral.outputs]
-    if system.closed_loop_poles is not None:
-        summary['closed_loop_poles'] = pole_pairs(system.closed_loop_poles)
-    tf = system.controller_tf
+    if system.loop.closed_loop_poles is not None:
+        summary['closed_loop_poles'] = pole_pairs(system.loop.closed_loop_poles)
+    tf = system.loop.controller_tf
     if tf is not None:
         summary['controller_tf'] = {
             'num': tf.num.tolist(), 'den': tf.den.tolist(), 'zeros': pole_pairs(tf.zeros),
@@ -183,7 +185,7 @@ def _poles_text(poles) -> str:
     return '[' + ', '.join(one(complex(p)) for p in poles) + ']'
 
 
-def format_report(system: System) -> str:
+def format_report(system: Configuration) -> str:
     """Text report in the spirit of the seeds' MATLAB sessions."""
     model = system.model
     out = []
@@ -193,8 +195,9 @@ def format_report(system: System) -> str:
     obs = observability(model.a, model.c)
     out.append(f'Observability matrix: rank {obs.rank} of {obs.n_states}, '
                f'condition {obs.condition_number:.4g}\n')
-    if system.disturbance is not None:
-        n_plant = system.plant_model.n_states
+    disturbed = system.augmentation.disturbance is not None
+    if disturbed:
+        n_plant = system.augmentation.plant.n_states
         count = model.n_states - n_plant
         out.append(f'Disturbances: {count} state{"s" if count > 1 else ""} after the '
                    f'{n_plant} plant states\n')
@@ -205,7 +208,7 @@ def format_report(system: System) -> str:
                        f'states {", ".join(row["states"])} (x_hat entries '
                        f'{", ".join(str(i) for i in row["state_indices"])}), generator '
                        f'modes {modes}\n')
-    observer = system.observer
+    observer = None if system.observer is None else system.observer.design
     if observer is not None:
         out.append(f'\nObserver: {observer.kind} (order {observer.order}), '
                    f'method {observer.method}\n')
@@ -213,7 +216,7 @@ def format_report(system: System) -> str:
         out.append(f'requested poles = {_poles_text(observer.requested_poles)}\n')
         out.append(f'achieved poles  = {_poles_text(observer.achieved_poles)}\n')
         out.append(f'residual = {observer.residual:.3g}\n')
-        if system.disturbance is not None:
+        if disturbed:
             out.append(f'disturbance estimates converge like the slowest observer pole '
                        f'{_poles_text([_slowest(system)])}\n')
         for item in _type_items(system):
@@ -244,9 +247,9 @@ def format_report(system: System) -> str:
         if feedback.disturbance_gain is not None and feedback.disturbance_gain.any():
             out.append(_matrix_text('K_d (disturbance rejection, u = -K x_hat - K_d d_hat)',
                                     feedback.disturbance_gain))
-    if system.closed_loop_poles is not None:
-        out.append(f'\nClosed-loop poles = {_poles_text(system.closed_loop_poles)}\n')
-    tf = system.controller_tf
+    if system.loop.closed_loop_poles is not None:
+        out.append(f'\nClosed-loop poles = {_poles_text(system.loop.closed_loop_poles)}\n')
+    tf = system.loop.controller_tf
     if tf is not None:
         variable = 'z' if model.is_discrete else 's'
         out.append('\nObserver-controller G_oc = -U/Y:\n')
@@ -257,6 +260,6 @@ def format_report(system: System) -> str:
         check = _diophantine(system)
         if check is not None:
             out.append(f'  Diophantine A R + B S = Acl: {check.format_polynomials(variable)}\n')
-    for note in system.notes:
+    for note in system.loop.notes:
         out.append(f'\nwarning: {note}\n')
     return ''.join(out)

@@ -35,7 +35,7 @@ import numpy as np
 
 from observer_ros.bags.storage import (
     absolute_topic, BagError, read_topics, TopicData, TopicRequest)
-from observer_ros.config import load_parameter_file, System, validate_parameters
+from observer_ros.config import Configuration, load_parameter_file, validate_parameters
 from observer_ros.config.schema import JOINT_STATE_FIELDS, topic_names
 from observer_ros.core.evaluation import align
 from observer_ros.core.units import NANOSECONDS
@@ -45,16 +45,14 @@ from observer_ros.core.units import NANOSECONDS
 TIME_BASE_SAMPLES = 4096
 
 
-def topic_request(system: System, key: str, topic: Optional[str] = None) -> TopicRequest:
+def topic_request(system: Configuration, key: str, topic: Optional[str] = None) -> TopicRequest:
     """Return what to read for the topic playing role ``key`` (``y``, ``u``, ``x_true`` ...)."""
-    model = system.model
-    names = topic_names(model, key)
-    params = system.parameters
-    return TopicRequest(topic or key, params[f'topics.{key}.type'],
-                        params[f'topics.{key}.field'], names)
+    settings = system.topics[key]
+    return TopicRequest(topic or key, settings.type, settings.field,
+                        topic_names(system.model, key))
 
 
-def topic_data(path, system: System, key: str, topic: Optional[str] = None) -> TopicData:
+def topic_data(path, system: Configuration, key: str, topic: Optional[str] = None) -> TopicData:
     """Read the bag topic playing role ``key`` of ``system``."""
     return read_topics(path, [topic_request(system, key, topic)])[0]
 
@@ -154,7 +152,7 @@ class ReplayResult:
 
     """
 
-    system: System
+    system: Configuration
     bag: str
     stamps_ns: np.ndarray
     estimates: np.ndarray
@@ -243,7 +241,7 @@ def reference_rmse(result: 'ReplayResult', reference: StateReference,
     return float(np.sqrt(np.mean((truth - estimate) ** 2))), len(stamps)
 
 
-def load_system(parameters: Union[str, os.PathLike, System]) -> System:
+def load_system(parameters: Union[str, os.PathLike, Configuration]) -> Configuration:
     """
     Return the validated system of a parameter file (or ``parameters`` itself).
 
@@ -254,7 +252,7 @@ def load_system(parameters: Union[str, os.PathLike, System]) -> System:
         unknown parameter is an error, as in ``design_observer``.
 
     """
-    system = parameters if isinstance(parameters, System) else validate_parameters(
+    system = parameters if isinstance(parameters, Configuration) else validate_parameters(
         load_parameter_file(str(parameters)), strict=True)
     if system.observer is None:
         from observer_ros.core.errors import ConfigError
@@ -263,7 +261,8 @@ def load_system(parameters: Union[str, os.PathLike, System]) -> System:
     return system
 
 
-def replay_bag(bag: Union[str, os.PathLike], parameters: Union[str, os.PathLike, System],
+def replay_bag(bag: Union[str, os.PathLike],
+               parameters: Union[str, os.PathLike, Configuration],
                y_topic: str = 'y', u_topic: str = 'u',
                use_log_time: bool = False) -> ReplayResult:
     """
@@ -273,7 +272,7 @@ def replay_bag(bag: Union[str, os.PathLike], parameters: Union[str, os.PathLike,
     ----------
     bag : path-like
         rosbag2 directory (MCAP or sqlite3), or one storage file.
-    parameters : path-like or System
+    parameters : path-like or Configuration
         Parameter file (``/**: ros__parameters:``) or an already validated system. Its
         ``topics.y.*`` and ``topics.u.*`` give the message types, fields and joint names.
     y_topic, u_topic : str
@@ -300,14 +299,14 @@ def replay_bag(bag: Union[str, os.PathLike], parameters: Union[str, os.PathLike,
     else:
         outputs, inputs = read_topics(bag, [topic_request(system, 'y', y_topic),
                                             topic_request(system, 'u', u_topic)])
-    max_gap_ns = int(system.parameters['observer.max_gap'] * NANOSECONDS)
-    input_stamped = system.parameters['topics.u.type'] == 'joint_state'
+    setup = system.observer
+    max_gap_ns, input_stamped = setup.max_gap_ns, setup.input_stamped
     if use_log_time:
         outputs, inputs, input_stamped = log_timed(outputs), log_timed(inputs), False
     else:
         check_time_bases(outputs, inputs, max_gap_ns, str(bag), absolute_topic(y_topic),
                          absolute_topic(u_topic))
-    stream = system.make_stream()
+    stream = setup.make_stream()
     stream.input_stamped = input_stamped
     result = stream.replay(inputs.stamps_ns, inputs.values, outputs.stamps_ns, outputs.values,
                            inputs.log_times_ns, outputs.log_times_ns)

@@ -125,18 +125,18 @@ def write_replay(result: ReplayResult, bag: Optional[str] = None, csv: Optional[
     if storage not in STORAGES:
         raise BagError(f'storage: expected one of {", ".join(STORAGES)}, got {storage!r}')
     system = result.system
-    params = system.parameters
+    estimate, innovations = system.topics['x_hat'], system.topics['innovation']
     written, made = [], made_directories(bag, csv)
     try:
         if bag is not None:
-            topics = [TopicToWrite('/x_hat', params['topics.x_hat.type'],
-                                   params['topics.x_hat.field'], system.model.state_names,
-                                   result.stamps_ns, result.stamps_ns, result.estimates)]
+            topics = [TopicToWrite('/x_hat', estimate.type, estimate.field,
+                                   system.model.state_names, result.stamps_ns,
+                                   result.stamps_ns, result.estimates)]
             if innovation:
                 topics.append(TopicToWrite(
-                    '/innovation', params['topics.innovation.type'],
-                    params['topics.innovation.field'], system.model.output_names,
-                    result.stamps_ns, result.stamps_ns, result.innovations))
+                    '/innovation', innovations.type, innovations.field,
+                    system.model.output_names, result.stamps_ns, result.stamps_ns,
+                    result.innovations))
             write_bag(bag, topics, storage)
             written.append(Path(bag))
         if csv is not None:

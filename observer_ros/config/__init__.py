@@ -13,31 +13,44 @@
 # limitations under the License.
 
 """
-The parameter schema of observer_ros, its file loader and its one validator.
+The parameter schema of observer_ros, its typed sections and its one validator.
 
 ROS-free (numpy, PyYAML and the core), shared by the nodes, the design CLI and the bag tools:
-:mod:`~observer_ros.config.schema` lists every parameter (the observer arguments come from
-the registered observer types), :mod:`~observer_ros.config.loader` reads
-``/**: ros__parameters:`` files, :func:`validate_parameters` checks a flat mapping and builds
-the :class:`System`, and :mod:`~observer_ros.config.names` maps the core's argument names to
-parameter names in errors.
+
+- :mod:`~observer_ros.config.schema` lists every parameter (the observer arguments come
+  from the registered observer types) and :mod:`~observer_ros.config.loader` reads
+  ``/**: ros__parameters:`` files;
+- :mod:`~observer_ros.config.sections` checks a parameter set once and reads it into typed
+  sections, each field bound to its parameter (:class:`Sections`);
+- :func:`validate_parameters` (:mod:`~observer_ros.config.configuration`) makes the
+  :class:`Configuration` of a parameter set: the model and its disturbance transform
+  (:class:`Augmentation`), the observer (:class:`ObserverSetup`, which makes the estimator
+  and the event stream), the state feedback (:class:`FeedbackSettings`), the simulated plant
+  (:class:`PlantSettings`) and the loop analysis (:class:`LoopAnalysis`).
 """
 
+from observer_ros.config.configuration import (
+    Configuration, NODE_PARTS, PARTS, validate_parameters)
+from observer_ros.config.feedback import FeedbackSettings
 from observer_ros.config.loader import flatten_parameters, load_parameter_file
-from observer_ros.config.names import ARGUMENT_PARAMETERS, named, parameter_for
+from observer_ros.config.loop import LoopAnalysis
+from observer_ros.config.model import Augmentation
+from observer_ros.config.observer import JointStateSelection, ObserverSetup
+from observer_ros.config.plant import PlantSettings
 from observer_ros.config.schema import (
     ALL_NODES, COVARIANCE_LIMIT, FEEDBACK, JOINT_STATE_FIELDS, MESSAGE_TYPES,
-    node_parameters, OBSERVER, PARAMETER_SPECS, parameter_table, PARAMETERS, ParameterSpec,
-    PLANT, ROS_PARAMETERS, TOPIC_ROLES, TOPICS, VALUE_LIMIT)
-from observer_ros.config.system import (
-    complete_parameters, FeedbackSettings, PlantSettings, System, validate_parameters)
+    node_parameters, OBSERVER, OBSERVER_ARGUMENTS, PARAMETER_SPECS, parameter_table,
+    PARAMETERS, ParameterSpec, PLANT, ROS_PARAMETERS, TOPIC_ROLES, TOPICS, VALUE_LIMIT)
+from observer_ros.config.sections import Binding, complete_parameters, Sections, TopicSettings
 from observer_ros.core.arguments import (
     BOOL, DOUBLE, DOUBLE_ARRAY, INTEGER, STRING, STRING_ARRAY)
 
 __all__ = ['BOOL', 'DOUBLE', 'DOUBLE_ARRAY', 'INTEGER', 'STRING', 'STRING_ARRAY',
-           'ALL_NODES', 'ARGUMENT_PARAMETERS', 'COVARIANCE_LIMIT', 'FEEDBACK',
-           'FeedbackSettings', 'JOINT_STATE_FIELDS', 'MESSAGE_TYPES', 'OBSERVER',
-           'PARAMETERS', 'PARAMETER_SPECS', 'PLANT', 'ParameterSpec', 'PlantSettings',
-           'ROS_PARAMETERS', 'System', 'TOPICS', 'TOPIC_ROLES', 'VALUE_LIMIT',
-           'complete_parameters', 'flatten_parameters', 'load_parameter_file', 'named',
-           'node_parameters', 'parameter_for', 'parameter_table', 'validate_parameters']
+           'ALL_NODES', 'Augmentation', 'Binding', 'COVARIANCE_LIMIT', 'Configuration',
+           'FEEDBACK', 'FeedbackSettings', 'JOINT_STATE_FIELDS', 'JointStateSelection',
+           'LoopAnalysis', 'MESSAGE_TYPES', 'NODE_PARTS', 'OBSERVER', 'OBSERVER_ARGUMENTS',
+           'ObserverSetup', 'PARAMETERS', 'PARAMETER_SPECS', 'PARTS', 'PLANT',
+           'ParameterSpec', 'PlantSettings', 'ROS_PARAMETERS', 'Sections', 'TOPICS',
+           'TOPIC_ROLES', 'TopicSettings', 'VALUE_LIMIT', 'complete_parameters',
+           'flatten_parameters', 'load_parameter_file', 'node_parameters', 'parameter_table',
+           'validate_parameters']

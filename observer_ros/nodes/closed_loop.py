@@ -34,7 +34,7 @@ from rclpy.utilities import remove_ros_args
 
 from observer_ros.app.plots import write_run_report
 from observer_ros.bags.storage import BagError, STORAGES, TopicToWrite, write_bag
-from observer_ros.config import System, validate_parameters
+from observer_ros.config import Configuration, validate_parameters
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.nodes.observer import ObserverNode
 from observer_ros.nodes.plant_simulator import plant_done, PlantSimulatorNode
@@ -79,7 +79,7 @@ class ClosedLoop:
             self.executor.add_node(node)
 
     @property
-    def system(self) -> System:
+    def system(self) -> Configuration:
         """Return the whole loop's configuration: the three nodes' parameters together."""
         merged = {}
         for node in (self.plant, self.observer, self.feedback):
@@ -104,7 +104,7 @@ class ClosedLoop:
         system = self.system
         return write_run_report(directory, 'closed_loop', system,
                                 *self.recorder.arrays('x_true'), *self.recorder.arrays('x_hat'),
-                                title=f'{system.observer.kind} observer in closed loop')
+                                title=f'{system.observer.design.kind} observer in closed loop')
 
     def record(self, path: str, storage: str = 'mcap') -> str:
         """Write the recorded topics to a new rosbag2 bag; return its path."""

@@ -73,8 +73,9 @@ class ObserverWiring:
         """Make the estimator, publishers, subscriptions, timers and ``~/reset``."""
         self.vet_system(system)
         preload_methods()  # no placement method may import a module on a callback path
-        self.stream = system.make_stream()
-        covariance = system.kind.capabilities.covariance
+        setup = system.observer
+        self.stream = setup.make_stream()
+        covariance = setup.kind.capabilities.covariance
         topics = ('y', 'u', 'x_hat', 'innovation') + (COVARIANCE_TOPICS if covariance else ())
         inputs = system.model.n_inputs > 0  # without inputs (m = 0) no u is subscribed
         self.codecs = {topic: VectorCodec.for_topic(system, topic) for topic in topics}
@@ -83,15 +84,15 @@ class ObserverWiring:
         self.publishers_ = {topic: self._publisher(topic) for topic in topics[2:]}
         self.x_hat_publisher = self.publishers_['x_hat']
         self.joint_states = None  # (encoder, publisher) of joint_states_hat, when configured
-        if system.joint_states is not None:
-            self.joint_states = (JointStatesEncoder(system.joint_states),
+        if setup.joint_states is not None:
+            self.joint_states = (JointStatesEncoder(setup.joint_states),
                                  self.topic_publisher(JointState, 'joint_states_hat'))
-        self.limits = {topic: system.parameters[f'topics.{topic}.limit'] for topic in topics}
+        self.limits = {topic: system.topics[topic].limit for topic in topics}
         self.topic_subscription(self.codecs['y'].message_class, 'y', self._on_measurement)
         if inputs:
             self.topic_subscription(self.codecs['u'].message_class, 'u', self._on_input)
         self.create_service(Trigger, '~/reset', self._on_reset)
-        self.input_wait_ns = round(system.parameters['observer.input_wait'] * NANOSECONDS)
+        self.input_wait_ns = setup.input_wait_ns
         self.wait_timer = self.create_timer(  # the steady clock is time.monotonic_ns's
             max(self.input_wait_ns, 1) / NANOSECONDS, self._on_wait_expired,
             clock=Clock(clock_type=ClockType.STEADY_TIME))
@@ -103,13 +104,16 @@ class ObserverWiring:
             monitors['u'] = monitor(system, 'u', 0.0, minimum_only=True)
         self.health = NodeHealth(self, monitors, self.counters, estimator=True)
         self.diagnostics = self.health.publisher
-        rate = system.parameters['observer.publish_rate']
+        rate = setup.publish_rate
         self.prediction_timer = (self.create_timer(1.0 / rate, self._on_prediction_time)
                                  if rate else None)
         self._last_published_ns = -1
+        design = setup.design
         self.get_logger().info(
-            f'{system.observer.kind} observer of order {system.observer.order}, poles '
-            f'{[complex(p) for p in system.observer.achieved_poles]}')
+            f'{design.kind} observer of order {design.order}, poles '
+            f'{[complex(p) for p in design.achieved_poles]}'
+            + (' (designed again for each new sample interval)'
+               if setup.designs_per_interval else ''))
 
     def pause(self) -> None:
         """Deactivation: stop the timers; the estimator restarts at the next activation."""
@@ -144,20 +148,19 @@ class ObserverWiring:
         # sampled design cannot take is refused here instead of failing on a sample.
         intervals = stream.estimator.recent_intervals()
         try:
-            system.make_estimator().try_intervals(intervals)
+            system.observer.make_estimator().try_intervals(intervals)
         except STEP_ERRORS as e:
-            raise ConfigError(system.design_source, f'the observer cannot be sampled at the '
-                              f'running intervals ({[dt / 1e9 for dt in intervals]} s): '
-                              f'{e}') from e
+            raise ConfigError(system.observer.design_source, f'the observer cannot be sampled '
+                              f'at the running intervals ({[dt / 1e9 for dt in intervals]} '
+                              f's): {e}') from e
 
     def apply_system(self, previous, system) -> None:
         """Switch gains without touching the estimate (no jump in x_hat)."""
-        estimator = self.stream.estimator
-        estimator.adopt(system.make_estimator())
+        estimator, setup = self.stream.estimator, system.observer
+        estimator.adopt(setup.make_estimator())
         self.health.restart_nis()
-        estimator.initial_state = system.initial_estimate
-        self.stream.clock_tolerance_ns = round(
-            system.parameters['observer.clock_tolerance'] * NANOSECONDS)
+        estimator.initial_state = setup.initial_state
+        self.stream.clock_tolerance_ns = setup.clock_tolerance_ns
 
     def _now_ns(self) -> int:
         now = self.get_clock().now().nanoseconds

@@ -78,23 +78,22 @@ class PlantSimulatorNode(ConfiguredNode):
         super().__init__(node_name, PLANT, **kwargs)
         system = self.system
         plant = system.plant
-        params = system.parameters
         self.simulator = PlantSimulator(
             system.model, plant.initial_state, plant.process_noise, plant.measurement_noise,
             plant.seed, plant.input_limits, plant.disturbance, plant.disturbance_time,
             input_offset=plant.input_offset)
         self.period_ns = plant.period_ns
         self.period = self.period_ns / NANOSECONDS
-        self.samples = params['plant.samples']
-        self.lockstep = params['plant.lockstep']
-        self.lockstep_timeout = params['plant.lockstep_timeout']
-        self.lockstep_subscribers = params['plant.lockstep_subscribers']
+        self.samples = plant.samples
+        self.lockstep = plant.lockstep
+        self.lockstep_timeout = plant.lockstep_timeout
+        self.lockstep_subscribers = plant.lockstep_subscribers
         self.autonomous = system.model.n_inputs == 0
-        self.wait_for_command = params['plant.wait_for_command'] and not self.autonomous
-        self.start_timeout = params['plant.start_timeout']
+        self.wait_for_command = plant.wait_for_command and not self.autonomous
+        self.start_timeout = plant.start_timeout
         self.command_timeout_ns = round(plant.command_timeout * NANOSECONDS)
         self.safe_input = self.simulator.saturate(plant.safe_input)
-        self.command_limit = params['topics.u_cmd.limit']
+        self.command_limit = system.topics['u_cmd'].limit
         topics = ('y', 'x_true') if self.autonomous else ('y', 'u', 'x_true')
         self.codecs = {topic: VectorCodec.for_topic(system, topic)
                        for topic in topics + ('u_cmd',)}
@@ -192,7 +191,7 @@ class PlantSimulatorNode(ConfiguredNode):
 
     def _publish_within(self, topic: str, vector) -> None:
         """Publish ``vector`` on ``topic`` unless it is not finite or beyond its limit."""
-        limit = self.system.parameters[f'topics.{topic}.limit']
+        limit = self.system.topics[topic].limit
         if not within_limit(np.asarray(vector, dtype=float), limit):
             self.counters['out_of_range'] += 1
             self.warn_once(f'{topic} out of range', f'{topic} not published: a value is not '

@@ -24,7 +24,7 @@ a change of anything else keeps it.
 With ``model.disturbances`` the estimate carries the disturbance states after the plant's:
 ``K`` acts on the plant states, and with ``feedback.disturbance_rejection`` each matched
 input disturbance estimate is subtracted from its input (``u = -K x_hat - d_hat + N r``,
-the gain ``[K, K_d]`` of :attr:`~observer_ros.config.system.FeedbackSettings.estimate_gain`).
+the gain ``[K, K_d]`` of :attr:`~observer_ros.config.FeedbackSettings.estimate_gain`).
 
 The command carries the stamp of the estimate it was computed from, so a lockstep plant can
 tell it apart. An ``x_hat`` or ``reference`` beyond ``topics.<topic>.limit`` is dropped and
@@ -71,8 +71,7 @@ def feedback_law(system) -> StateFeedbackLaw:
 
 def value_limits(system) -> dict:
     """``topics.<topic>.limit`` of the feedback node's topics."""
-    return {topic: system.parameters[f'topics.{topic}.limit']
-            for topic in ('x_hat', 'reference', 'u_cmd', 'y')}
+    return {topic: system.topics[topic].limit for topic in ('x_hat', 'reference', 'u_cmd', 'y')}
 
 
 def _integral_key(system) -> Optional[tuple]:

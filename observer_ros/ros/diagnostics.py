@@ -44,7 +44,6 @@ from observer_ros.app.health import (
     Check, combine, configuration_check, CounterWatch, covariance_values,
     ESTIMATOR_WARNING_COUNTERS, innovation_values, INPUT_WARNING_COUNTERS, InputMonitor,
     nis_findings, stale_timeout, WARNING_COUNTERS)
-from observer_ros.config.system import sample_rate
 from observer_ros.core.consistency import NisWindow
 
 #: The topic every node reports on (absolute: not namespaced, as ROS expects).
@@ -56,7 +55,7 @@ __all__ = ['DIAGNOSTICS_TOPIC', 'DiagnosticsPublisher', 'NodeHealth', 'WARNING_C
 
 def expected_rate(system) -> float:
     """``diagnostics.expected_rate``, or the plant rate when it is 0 (the sample rate)."""
-    return sample_rate(system.parameters, system.model)[0]
+    return system.sample_rate_hz
 
 
 def status_message(check: Check, name: str, hardware_id: str) -> DiagnosticStatus:
@@ -87,7 +86,7 @@ class DiagnosticsPublisher:
     Parameters
     ----------
     node : ConfiguredNode
-        Its ``system.parameters`` give the period and the hardware id.
+        Its ``system.diagnostics`` give the period and the hardware id.
     checks : callable
         ``checks(now_ns)`` returns the :class:`~observer_ros.app.health.Check` list at
         ``now_ns`` (``time.monotonic_ns()``).
@@ -99,9 +98,9 @@ class DiagnosticsPublisher:
     def __init__(self, node: Node, checks: Callable[[int], Sequence[Check]]) -> None:
         self.node = node
         self.checks = checks
-        params = node.system.parameters
-        self.period = params['diagnostics.period']
-        self.hardware_id = params['diagnostics.hardware_id'] or node.get_fully_qualified_name()
+        settings = node.system.diagnostics
+        self.period = settings.period
+        self.hardware_id = settings.hardware_id or node.get_fully_qualified_name()
         self.publisher = self.timer = None
         if self.period > 0:
             self.publisher = node.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10)
@@ -154,12 +153,12 @@ class NodeHealth:
         self._configuration = (None, None)
         self.estimator = estimator
         system = node.system
-        params = system.parameters
-        window = params['diagnostics.nis_window']
-        self.innovations = deque(maxlen=window)
-        self.nis = (NisWindow(window, system.model.n_outputs,
-                              params['diagnostics.nis_confidence'])
-                    if estimator and system.kind.capabilities.covariance else None)
+        settings = system.diagnostics
+        self.innovations = deque(maxlen=settings.nis_window)
+        covariance = (estimator and system.observer is not None
+                      and system.observer.kind.capabilities.covariance)
+        self.nis = (NisWindow(settings.nis_window, system.model.n_outputs,
+                              settings.nis_confidence) if covariance else None)
         self.covariance = None
         self.publisher = DiagnosticsPublisher(node, self.checks)
 
@@ -192,17 +191,16 @@ class NodeHealth:
         cached, check = self._configuration
         if cached is system:
             return check
-        observer, feedback = system.observer, system.feedback
-        params = system.parameters
+        observer, feedback, plant = system.observer, system.feedback, system.plant
         extra = [('expected_rate_hz', f'{expected_rate(system):.4g}')]
-        if self.node.role == 'plant_simulator':
-            extra += [('plant_rate_hz', f'{system.plant.rate_hz:.4g}'),
-                      ('lockstep', str(params['plant.lockstep']).lower())]
+        if plant is not None:
+            extra += [('plant_rate_hz', f'{plant.rate_hz:.4g}'),
+                      ('lockstep', str(plant.lockstep).lower())]
         check = configuration_check(
-            system.model, system.observer_type if observer is not None else None,
-            None if observer is None else observer.achieved_poles,
+            system.model, None if observer is None else observer.kind.name,
+            None if observer is None else observer.design.achieved_poles,
             None if feedback is None else feedback.design.achieved_poles,
-            system.closed_loop_poles, system.notes, extra)
+            system.loop.closed_loop_poles, system.loop.notes, extra)
         self._configuration = (system, check)
         return check
 
@@ -247,8 +245,8 @@ def monitor(system, topic: str, stale_default: float, required: bool = True,
     :func:`observer_ros.app.health.stale_timeout`), used when ``diagnostics.stale_timeout``
     is 0.
     """
-    params = system.parameters
+    settings = system.diagnostics
     rate = expected_rate(system) if rated else None
-    configured = params['diagnostics.stale_timeout'] or stale_default
+    configured = settings.stale_timeout or stale_default
     return InputMonitor(topic, rate, stale_timeout(configured, rate),
-                        params['diagnostics.rate_tolerance'], required, minimum_only)
+                        settings.rate_tolerance, required, minimum_only)

@@ -44,7 +44,7 @@ from rclpy.lifecycle import (
 from rclpy.publisher import Publisher
 from rclpy.subscription import Subscription
 
-from observer_ros.config import ParameterSpec, System, validate_parameters
+from observer_ros.config import Configuration, ParameterSpec, validate_parameters
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.ros.parameters import SchemaParameters
 
@@ -106,7 +106,7 @@ class ManagedNode(SchemaParameters, LifecycleNode):
 
     # --- the wiring's hooks (the plain nodes' mixins override build, pause and resume) --
 
-    def build(self, system: System) -> None:
+    def build(self, system: Configuration) -> None:
         """Create the node's wiring for ``system`` (see the node modules)."""
         raise NotImplementedError
 
@@ -146,7 +146,7 @@ class ManagedNode(SchemaParameters, LifecycleNode):
         before, attributes = self._entities(), set(vars(self))
         error = None
         try:
-            self.system = validate_parameters(self.current_parameters())
+            self.system = validate_parameters(self.current_parameters(), node=self.role)
             self.build(self.system)  # vets the system first, as the plain node does
         except (ConfigError, DesignError) as e:
             error = e

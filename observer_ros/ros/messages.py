@@ -35,7 +35,7 @@ from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
-from observer_ros.config import System
+from observer_ros.config import Configuration
 from observer_ros.config.schema import topic_names
 from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.cdr import (
@@ -115,15 +115,13 @@ class VectorCodec:
                                      kind, field)
 
     @classmethod
-    def for_topic(cls, system: System, topic: str) -> 'VectorCodec':
+    def for_topic(cls, system: Configuration, topic: str) -> 'VectorCodec':
         """Codec of a topic configured by ``topics.<topic>.*`` and the model names."""
-        model = system.model
-        names = topic_names(model, topic)
-        params = system.parameters
+        names = topic_names(system.model, topic)
+        settings = system.topics[topic]
         side = math.isqrt(len(names))
         shape = (side, side) if topic.endswith('_covariance') else None
-        return cls(topic, params[f'topics.{topic}.type'], params[f'topics.{topic}.field'],
-                   names, shape)
+        return cls(topic, settings.type, settings.field, names, shape)
 
     def encode(self, stamp_ns: int, vector) -> bytes:
         """
@@ -235,7 +233,7 @@ class JointStatesEncoder:
 
     Parameters
     ----------
-    selection : observer_ros.config.system.JointStateSelection
+    selection : observer_ros.config.JointStateSelection
         Joint names and, per field (``position``, ``velocity``, ``effort``), the state index
         of each joint (an empty tuple leaves that field empty).
 
@@ -243,7 +241,7 @@ class JointStatesEncoder:
     --------
     >>> from rclpy.serialization import deserialize_message
     >>> from sensor_msgs.msg import JointState
-    >>> from observer_ros.config.system import JointStateSelection
+    >>> from observer_ros.config import JointStateSelection
     >>> encoder = JointStatesEncoder(JointStateSelection(('shoulder',), (0,), (1,)))
     >>> message = deserialize_message(encoder.encode(5, [1.5, -2.0]), JointState)
     >>> message.name, list(message.position), list(message.velocity), list(message.effort)

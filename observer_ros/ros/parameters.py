@@ -31,7 +31,7 @@ from rclpy.publisher import Publisher
 from rclpy.subscription import Subscription
 
 from observer_ros.config import (
-    node_parameters, PARAMETER_SPECS, ParameterSpec, System, validate_parameters)
+    Configuration, node_parameters, PARAMETER_SPECS, ParameterSpec, validate_parameters)
 from observer_ros.core.arguments import (
     BOOL, DOUBLE, DOUBLE_ARRAY, INTEGER, STRING, STRING_ARRAY)
 from observer_ros.core.errors import ConfigError, DesignError
@@ -116,8 +116,8 @@ class SchemaParameters:
         self.role = role
         self.managed = managed
         self.specs = {spec.name: spec for spec in node_parameters(role, managed)}
-        self.system: Optional[System] = None
-        self._pending: Optional[System] = None
+        self.system: Optional[Configuration] = None
+        self._pending: Optional[Configuration] = None
         for spec in self.specs.values():
             self._declare(spec)
         self._warn_unknown_overrides()
@@ -233,7 +233,7 @@ class SchemaParameters:
         if not touched or self.system is None:
             return SetParametersResult(successful=True)
         try:
-            self._pending = validate_parameters(merged)
+            self._pending = validate_parameters(merged, node=self.role)
             self.vet_system(self._pending)
         except (ConfigError, DesignError) as e:
             self._pending = None
@@ -252,10 +252,10 @@ class SchemaParameters:
         """Say why ``spec`` cannot change now (None when it can; see the managed nodes)."""
         return None
 
-    def vet_system(self, system: System) -> None:
+    def vet_system(self, system: Configuration) -> None:
         """Raise ConfigError if this node cannot run ``system`` (beyond schema checks)."""
 
-    def apply_system(self, previous: System, system: System) -> None:
+    def apply_system(self, previous: Configuration, system: Configuration) -> None:
         """Switch to a newly accepted configuration (called after the parameters are set)."""
 
     def topic_publisher(self, message_class: type, topic: str) -> Publisher:
@@ -304,7 +304,7 @@ class ConfiguredNode(SchemaParameters, Node):
     def __init__(self, node_name: str, role: str, **kwargs) -> None:
         super().__init__(node_name, **kwargs)
         self.declare_schema(role)
-        self.system = validate_parameters(self.current_parameters())
+        self.system = validate_parameters(self.current_parameters(), node=role)
 
 
 __all__ = ['ConfiguredNode', 'PARAMETER_TYPES', 'SchemaParameters', 'coerced',

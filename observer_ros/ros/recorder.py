@@ -21,7 +21,7 @@ import numpy as np
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
-from observer_ros.config import System
+from observer_ros.config import Configuration
 from observer_ros.ros.messages import MalformedMessage, VectorCodec
 from observer_ros.ros.qos import volatile_qos
 
@@ -49,7 +49,7 @@ class TopicRecorder(Node):
 
     Parameters
     ----------
-    system : System
+    system : Configuration
         Gives each topic's message type and names.
     topics : sequence of str
         Topic keys (``'y'``, ``'u'``, ``'u_cmd'``, ``'x_true'``, ``'x_hat'`` ...).
@@ -60,7 +60,7 @@ class TopicRecorder(Node):
 
     """
 
-    def __init__(self, system: System, topics, node_name: str = 'recorder',
+    def __init__(self, system: Configuration, topics, node_name: str = 'recorder',
                  keep_messages: bool = False, **kwargs) -> None:
         super().__init__(node_name, **kwargs)
         self.codecs = {topic: VectorCodec.for_topic(system, topic) for topic in topics}

@@ -24,7 +24,6 @@ import yaml
 
 from observer_ros.app.report import design_summary, format_report
 from observer_ros.config import load_parameter_file, PARAMETER_SPECS, validate_parameters
-from observer_ros.config.names import parameter_for
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.signals import stops_on_signal
 
@@ -35,9 +34,7 @@ def designed_parameters(system) -> dict:
               if name not in PARAMETER_SPECS or value != PARAMETER_SPECS[name].default}
     observer = system.observer
     if observer is not None:  # the type says which arguments pin its design as it is
-        for argument, value in system.kind.pinned_arguments(
-                observer, system.observer_values()).items():
-            parameter = parameter_for('observer', argument)
+        for parameter, value in observer.pinned_parameters().items():
             if value is None:
                 params.pop(parameter, None)
             else:

@@ -83,7 +83,7 @@ def main(args=None) -> int:
         result = replay_bag(options.bag, system, options.y_topic, options.u_topic or 'u',
                             options.use_log_time)
         settle = (options.settle if options.settle is not None else
-                  settling_time(system.observer.achieved_poles, system.model.dt))
+                  settling_time(system.observer.design.achieved_poles, system.model.dt))
         rmse = [(reference, *reference_rmse(result, reference, settle))
                 for reference in references]
         elapsed = time.perf_counter() - started
@@ -119,7 +119,7 @@ def main(args=None) -> int:
             print(write_run_report(
                 options.report, REPORT_NAME, result.system, truth.stamps_ns, truth.values,
                 result.stamps_ns, result.estimates,
-                title=f'{result.system.observer.kind} observer, {options.bag}'))
+                title=f'{result.system.observer.design.kind} observer, {options.bag}'))
     except (BagError, ConfigError, DesignError, ValueError, OSError) as e:
         remove_outputs(written, made)
         print(f'replay: error: {e}', file=sys.stderr)

@@ -1,0 +1,311 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The observer of a configuration: its design, and the estimator and stream made from it.
+
+The path of an observer parameter (``observer.poles``) to the estimate:
+
+1. :func:`~observer_ros.config.sections.complete_parameters` checks the value once, and
+   :class:`~observer_ros.config.sections.ObserverSection` holds it by its argument name
+   (``arguments['poles']``);
+2. :func:`design_observer` hands the type's arguments to its design function
+   (``observer_ros.core.observers.<type>``), which parses the poles and places them;
+3. :meth:`ObserverSetup.make_estimator` builds the type's estimator from the design through
+   :func:`observer_ros.core.observers.make_estimator`, and :meth:`ObserverSetup.make_stream`
+   runs it in an :class:`~observer_ros.core.streaming.EventStream`.
+
+For a continuous model the estimator designs the observer again for each new sample
+interval, at run time (:attr:`ObserverSetup.designs_per_interval`): it samples the plant
+exactly over the interval and places the poles there as ``exp(lambda dt)`` (a Kalman
+filter solves its Riccati equation there), so jittered stamps stay exact. Each interval is
+designed once and cached, rounded to ``observer.interval_resolution``
+(:class:`~observer_ros.core.estimators.StepDesign`).
+"""
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from observer_ros.config.model import Augmentation
+from observer_ros.config.sections import (
+    Binding, JointStatesSection, ModelSection, ObserverSection, Sections)
+from observer_ros.config.values import check_inside, indices
+from observer_ros.core.design.common import ObserverDesign
+from observer_ros.core.errors import ConfigError
+from observer_ros.core.estimators import Estimator
+from observer_ros.core.flat_matrices import vector_from_flat
+from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.observers import (
+    disturbance_arguments, make_estimator, observer_type, ObserverType)
+from observer_ros.core.rules import ValueLimits
+from observer_ros.core.streaming import EventStream
+from observer_ros.core.units import NANOSECONDS
+
+
+@dataclass(frozen=True)
+class JointStateSelection:
+    """
+    Validated ``observer.joint_*``: which states fill each field of ``joint_states_hat``.
+
+    Attributes
+    ----------
+    names : tuple of str
+        The joint names.
+    position, velocity, effort : tuple of int
+        State indices, one per joint, or empty (the field stays empty).
+
+    """
+
+    names: tuple
+    position: tuple = ()
+    velocity: tuple = ()
+    effort: tuple = ()
+
+
+def joint_state_selection(section: JointStatesSection,
+                          model: StateSpaceModel) -> Optional[JointStateSelection]:
+    """
+    Return the states of each field of ``joint_states_hat`` (None without joint names).
+
+    Raises
+    ------
+    ConfigError
+        Naming the ``observer.joint_*`` parameter.
+
+    """
+    binding = section.binding()
+    names = tuple(section.names)
+    chosen = {field: getattr(section, field) for field in ('position', 'velocity', 'effort')}
+    if not names:
+        for field, states in chosen.items():
+            if states:
+                raise ConfigError(binding[field], 'needs observer.joint_names (the joints of '
+                                  'joint_states_hat)')
+        return None
+    if len(set(names)) != len(names):
+        raise ConfigError(binding['names'], f'names must be unique, got {list(names)}')
+    if not any(chosen.values()):
+        raise ConfigError(binding['names'], 'expected states for at least one field: '
+                          'observer.joint_position_states, observer.joint_velocity_states or '
+                          'observer.joint_effort_states')
+    selected = {}
+    for field, states in chosen.items():
+        if states and len(states) != len(names):
+            raise ConfigError(binding[field], f'expected {len(names)} states (one per joint of '
+                              f'observer.joint_names), got {len(states)}')
+        selected[field] = indices(binding[field], states, model.state_names, 'state')
+    return JointStateSelection(names, **selected)
+
+
+@dataclass(frozen=True)
+class ObserverDesignResult:
+    """
+    What :func:`design_observer` decided: the type, its checked arguments and the design.
+
+    Attributes
+    ----------
+    kind : ObserverType
+    arguments : dict
+        The type's arguments by name, checked once (by the schema).
+    design : ObserverDesign or None
+        None when the arguments configure no observer (no poles, gain or noise).
+    initial_state : numpy.ndarray or None
+        ``observer.initial_state`` when given (it pins the first estimate).
+    binding : Binding
+        The arguments of the type's calls bound to their parameters.
+    design_source : str
+        The parameter a failed design is charged to when its error names none.
+
+    """
+
+    kind: ObserverType
+    arguments: dict
+    design: Optional[ObserverDesign]
+    initial_state: Optional[np.ndarray]
+    binding: Binding
+    design_source: str
+
+
+def design_observer(sections: Sections, augmentation: Augmentation) -> ObserverDesignResult:
+    """
+    Design the observer of ``observer.*`` for the model (and check its stream settings).
+
+    Raises
+    ------
+    ConfigError
+        Naming the parameter: an unknown type, a failed design (charged to the argument the
+        error names, else to :attr:`ObserverDesignResult.design_source`), a resolution that
+        does not fit, an initial state of the wrong size or beyond ``topics.x_hat.limit``.
+
+    """
+    section, model = sections.observer, augmentation.model
+    binding = ModelSection.binding() | section.binding()
+    with binding.charged(binding['type']):
+        kind = observer_type(section.type)
+    given = section.arguments
+    design_source = binding.get(kind.charged_argument(given)) or binding['type']
+    for argument in disturbance_arguments():
+        augmentation.refuse_without(binding[argument], given.get(argument))
+    with binding.charged(design_source, numeric=True):
+        if kind.vet is not None:
+            kind.vet(model, given)
+        arguments = {name: given[name] for name in kind.argument_names()}
+        design = kind.design(model, arguments, augmentation.disturbance)
+    _check_interval_resolution(section, model)
+    initial_state = None
+    if section.initial_state:
+        initial_state = vector_from_flat(binding['initial_state'], section.initial_state,
+                                         model.n_states)
+        check_inside(binding['initial_state'], initial_state, sections.topics['x_hat'].limit,
+                     'topics.x_hat.limit')
+    return ObserverDesignResult(kind, arguments, design, initial_state, binding,
+                                design_source)
+
+
+def _check_interval_resolution(section: ObserverSection, model: StateSpaceModel) -> None:
+    parameter = section.binding()['interval_resolution']
+    resolution, max_gap = section.interval_resolution, section.max_gap
+    if resolution >= max_gap:
+        raise ConfigError(parameter, f'expected seconds in [0, observer.max_gap = {max_gap}), '
+                          f'got {resolution}')
+    if resolution and model.is_discrete:
+        raise ConfigError(parameter, f'a discrete model (model.dt = {model.dt}) has one '
+                          f'period; expected 0, got {resolution}')
+
+
+def _ns(seconds: float) -> int:
+    return round(seconds * NANOSECONDS)
+
+
+@dataclass(frozen=True)
+class ObserverSetup:
+    """
+    The observer of a configuration: its design, and how its estimator and stream run.
+
+    Made by :func:`observer_ros.config.validate_parameters` when the parameters configure
+    an observer; the observer node, the bag replay and the tools run it.
+
+    Attributes
+    ----------
+    kind : ObserverType
+        The registered type of ``observer.type``: ask its ``capabilities``.
+    arguments : dict
+        The type's arguments by their own names, checked once.
+    design : ObserverDesign
+    initial_state : numpy.ndarray or None
+        ``observer.initial_state``, which pins the first estimate; None: the first
+        measurement initialises it.
+    interval_resolution_ns, max_gap_ns, clock_tolerance_ns, input_wait_ns : int
+        ``observer.interval_resolution``, ``observer.max_gap``, ``observer.clock_tolerance``
+        and ``observer.input_wait`` in integer nanoseconds.
+    publish_rate : float
+        ``observer.publish_rate`` (Hz; 0: once per measurement).
+    limits : ValueLimits
+        ``topics.<topic>.limit`` of ``y``, ``u``, ``x_hat`` and ``innovation``.
+    input_stamped : bool
+        Whether ``u`` carries header stamps (``topics.u.type``).
+    joint_states : JointStateSelection or None
+        ``observer.joint_*`` when given.
+    binding : Binding
+        The type's arguments (and the model's) bound to their parameters.
+    design_source : str
+        The parameter a failed design is charged to when its error names none.
+
+    """
+
+    kind: ObserverType
+    arguments: dict
+    design: ObserverDesign
+    initial_state: Optional[np.ndarray]
+    interval_resolution_ns: int
+    max_gap_ns: int
+    clock_tolerance_ns: int
+    input_wait_ns: int
+    publish_rate: float
+    limits: ValueLimits
+    input_stamped: bool
+    joint_states: Optional[JointStateSelection]
+    binding: Binding
+    design_source: str
+
+    @classmethod
+    def of(cls, result: ObserverDesignResult, sections: Sections,
+           joint_states: Optional[JointStateSelection]) -> Optional['ObserverSetup']:
+        """Return the setup of a design and the stream's sections (None without a design)."""
+        if result.design is None:
+            return None
+        section, topics = sections.observer, sections.topics
+        limits = ValueLimits(measurement=topics['y'].limit, input=topics['u'].limit,
+                             estimate=topics['x_hat'].limit,
+                             innovation=topics['innovation'].limit)
+        return cls(result.kind, result.arguments, result.design, result.initial_state,
+                   _ns(section.interval_resolution), _ns(section.max_gap),
+                   _ns(section.clock_tolerance), _ns(section.input_wait), section.publish_rate,
+                   limits, topics['u'].stamped, joint_states, result.binding,
+                   result.design_source)
+
+    @property
+    def form(self) -> str:
+        """``observer.form``: ``current``, or ``delayed`` (types that have the argument)."""
+        return self.arguments.get('form', 'current')
+
+    @property
+    def designs_per_interval(self) -> bool:
+        """
+        Whether the estimator designs the observer again for each new sample interval.
+
+        True for a continuous model: each new interval (rounded to
+        :attr:`interval_resolution_ns`) is sampled exactly and the poles placed there
+        again, at run time (see the module notes). A discrete model has one period.
+        """
+        return not self.design.model.is_discrete
+
+    def pinned_parameters(self) -> dict:
+        """
+        Return the parameters that pin the design as it is (``design_observer --write``).
+
+        ``{parameter: value}``, a value None removing the parameter; the type says which of
+        its arguments pin it.
+        """
+        pinned = self.kind.pinned_arguments(self.design, self.arguments)
+        return {self.binding[argument]: value for argument, value in pinned.items()}
+
+    def make_estimator(self) -> Estimator:
+        """
+        Build the runtime estimator through :func:`observer_ros.core.observers.make_estimator`.
+
+        Raises
+        ------
+        ConfigError
+            Naming the parameter (a type's estimator that cannot take the design).
+
+        """
+        try:
+            return make_estimator(self.design, self.initial_state, self.interval_resolution_ns,
+                                  values=self.arguments)
+        except ConfigError as e:
+            raise self.binding.error(e, self.design_source) from e
+
+    def make_stream(self) -> EventStream:
+        """
+        Build the :class:`EventStream` the observer node and the bag replay both run.
+
+        Its gap, clock tolerance, value limits, stamped inputs and form are this setup's.
+        """
+        return EventStream(self.make_estimator(), self.max_gap_ns,
+                           input_stamped=self.input_stamped,
+                           clock_tolerance_ns=self.clock_tolerance_ns, limits=self.limits,
+                           form=self.form)
