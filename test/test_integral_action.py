@@ -159,6 +159,7 @@ def test_anti_windup_keeps_the_overshoot_of_the_unsaturated_loop():
      "'elbow' is no output"),
     ({'feedback.integral_poles': ['-6', '-7']}, 'feedback.integral_poles', 'expected 1 poles'),
     ({'feedback.integral_poles': ['6']}, 'feedback.integral_poles', 'not stable'),
+    ({'feedback.integral_poles': ['-1+1j']}, 'feedback.integral_poles', 'no conjugate'),
     ({'feedback.integral_gain': [1.0]}, 'feedback.integral_gain', 'either'),
     ({'feedback.gain': [8.7, 0.65], 'feedback.poles': [], 'feedback.integral_gain': [-21.6],
       'feedback.integral_poles': []}, 'feedback.integral_gain', 'unstable'),

@@ -80,6 +80,19 @@ class FeedbackSettings:
             return self.design.gain
         return np.hstack([self.design.gain, self.disturbance_gain])
 
+    def pinned_parameters(self) -> dict:
+        """
+        Return the parameters that pin the design as it is (``design_observer --write``).
+
+        ``{parameter: value}``, None removing the parameter: the gain instead of the poles,
+        and the reference gain when there is one.
+        """
+        binding = FeedbackSection.binding()
+        pinned = {binding['gain']: np.ravel(self.design.gain).tolist(), binding['poles']: None}
+        if self.reference_gain is not None:
+            pinned[binding['reference_gain']] = np.ravel(self.reference_gain).tolist()
+        return pinned
+
 
 def _integral_outputs(section: IntegralSection, model: StateSpaceModel) -> tuple:
     parameter = section.binding()['outputs']

@@ -19,7 +19,6 @@ import json
 import sys
 from typing import Optional
 
-import numpy as np
 import yaml
 
 from observer_ros.app.report import design_summary, format_report
@@ -32,19 +31,13 @@ def designed_parameters(system) -> dict:
     """Parameters with the designed gains filled in, ready for a new parameter file."""
     params = {name: value for name, value in system.parameters.items()
               if name not in PARAMETER_SPECS or value != PARAMETER_SPECS[name].default}
-    observer = system.observer
-    if observer is not None:  # the type says which arguments pin its design as it is
-        for parameter, value in observer.pinned_parameters().items():
+    for designed in (system.observer, system.feedback):  # what pins each design as it is
+        pinned = {} if designed is None else designed.pinned_parameters()
+        for parameter, value in pinned.items():
             if value is None:
                 params.pop(parameter, None)
             else:
                 params[parameter] = value
-    feedback = system.feedback
-    if feedback is not None:
-        params['feedback.gain'] = np.ravel(feedback.design.gain).tolist()
-        params.pop('feedback.poles', None)
-        if feedback.reference_gain is not None:
-            params['feedback.reference_gain'] = np.ravel(feedback.reference_gain).tolist()
     return params
 
 
