@@ -190,25 +190,10 @@ class DisturbanceModel:
 
     def augmented_process_noise(self, plant_noise, disturbance_noise=None) -> np.ndarray:
         """
-        Return the process noise of the augmented model (:func:`augmented_noise`).
+        Return the process noise of the augmented model, as :func:`augmented_noise` does.
 
-        Parameters
-        ----------
-        plant_noise : array_like, shape (n, n)
-            ``Q`` of the plant states.
-        disturbance_noise : sequence of float, shape (n_d,), optional
-            The disturbance states' diagonal; None: zeros (the generators run without
-            noise, as the plant simulator runs them).
-
-        Returns
-        -------
-        numpy.ndarray, shape (n + n_d, n + n_d)
-
-        Raises
-        ------
-        ConfigError
-            ``disturbance_noise``: a wrong count or a negative value.
-
+        ``disturbance_noise`` None gives the disturbance states no noise (the generators
+        run exactly, as the plant simulator runs them).
         """
         n_d = self.n_disturbance_states
         noise = np.zeros(n_d) if disturbance_noise is None else disturbance_noise
