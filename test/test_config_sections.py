@@ -56,7 +56,7 @@ FIELD_TYPES = {DOUBLE: float, DOUBLE_ARRAY: list, STRING: str, STRING_ARRAY: lis
 
 
 def test_every_parameter_is_bound_by_one_field_of_one_section():
-    bound = Sections.parameters()
+    bound = Sections.parameter_names()
     assert len(bound) == len(set(bound))
     assert sorted(bound) == sorted(spec.name for spec in PARAMETERS)
 
@@ -168,7 +168,7 @@ def test_the_node_parts_are_those_whose_parameters_the_node_declares():
     for node in ALL_NODES:
         declared = {spec.name for spec in node_parameters(node)}
         uses = tuple(part for part in PARTS
-                     if declared & set(sections[part].parameters()))
+                     if declared & set(sections[part].parameter_names()))
         assert uses == NODE_PARTS[node], node
 
 

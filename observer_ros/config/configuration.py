@@ -30,7 +30,7 @@ from observer_ros.config.feedback import feedback_settings, FeedbackSettings
 from observer_ros.config.loop import analyse_loop, LoopAnalysis
 from observer_ros.config.model import Augmentation
 from observer_ros.config.observer import (
-    design_observer, joint_state_selection, ObserverSetup)
+    joint_state_selection, observer_design, ObserverSetup)
 from observer_ros.config.plant import plant_settings, PlantSettings
 from observer_ros.config.schema import FEEDBACK, OBSERVER, PLANT
 from observer_ros.config.sections import DiagnosticsSection, Sections, TopicsSection
@@ -156,7 +156,7 @@ def validate_parameters(params: Mapping[str, Any], strict: bool = False,
     sections = Sections.check(params, strict)
     augmentation = Augmentation.read(sections.model)
     model = augmentation.model
-    designed = design_observer(sections, augmentation) if 'observer' in parts else None
+    designed = observer_design(sections, augmentation) if 'observer' in parts else None
     feedback = feedback_settings(sections, augmentation) if 'feedback' in parts else None
     plant = plant_settings(sections, augmentation) if 'plant' in parts else None
     check_sample_period(sections, model, params)

@@ -20,7 +20,7 @@ The path of an observer parameter (``observer.poles``) to the estimate:
 1. :func:`~observer_ros.config.sections.complete_parameters` checks the value once, and
    :class:`~observer_ros.config.sections.ObserverSection` holds it by its argument name
    (``arguments['poles']``);
-2. :func:`design_observer` hands the type's arguments to its design function
+2. :func:`observer_design` hands the type's arguments to its design function
    (``observer_ros.core.observers.<type>``), which parses the poles and places them;
 3. :meth:`ObserverSetup.make_estimator` builds the type's estimator from the design through
    :func:`observer_ros.core.observers.make_estimator`, and :meth:`ObserverSetup.make_stream`
@@ -111,9 +111,9 @@ def joint_state_selection(section: JointStatesSection,
 
 
 @dataclass(frozen=True)
-class ObserverDesignResult:
+class DesignedObserver:
     """
-    What :func:`design_observer` decided: the type, its checked arguments and the design.
+    What :func:`observer_design` decided: the type, its checked arguments and the design.
 
     Attributes
     ----------
@@ -139,7 +139,7 @@ class ObserverDesignResult:
     design_source: str
 
 
-def design_observer(sections: Sections, augmentation: Augmentation) -> ObserverDesignResult:
+def observer_design(sections: Sections, augmentation: Augmentation) -> DesignedObserver:
     """
     Design the observer of ``observer.*`` for the model (and check its stream settings).
 
@@ -147,7 +147,7 @@ def design_observer(sections: Sections, augmentation: Augmentation) -> ObserverD
     ------
     ConfigError
         Naming the parameter: an unknown type, a failed design (charged to the argument the
-        error names, else to :attr:`ObserverDesignResult.design_source`), a resolution that
+        error names, else to :attr:`DesignedObserver.design_source`), a resolution that
         does not fit, an initial state of the wrong size or beyond ``topics.x_hat.limit``.
 
     """
@@ -171,8 +171,7 @@ def design_observer(sections: Sections, augmentation: Augmentation) -> ObserverD
                                          model.n_states)
         check_inside(binding['initial_state'], initial_state, sections.topics['x_hat'].limit,
                      'topics.x_hat.limit')
-    return ObserverDesignResult(kind, arguments, design, initial_state, binding,
-                                design_source)
+    return DesignedObserver(kind, arguments, design, initial_state, binding, design_source)
 
 
 def _check_interval_resolution(section: ObserverSection, model: StateSpaceModel) -> None:
@@ -242,7 +241,7 @@ class ObserverSetup:
     design_source: str
 
     @classmethod
-    def of(cls, result: ObserverDesignResult, sections: Sections,
+    def of(cls, result: DesignedObserver, sections: Sections,
            joint_states: Optional[JointStateSelection]) -> Optional['ObserverSetup']:
         """Return the setup of a design and the stream's sections (None without a design)."""
         if result.design is None:

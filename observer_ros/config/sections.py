@@ -170,8 +170,10 @@ class Section:
     """
     Base of the typed sections: fields bound to parameters (:func:`bound`) or sections.
 
-    A section whose values are not one parameter each (the topics, an observer type's
-    arguments) overrides :meth:`read` and :meth:`binding`.
+    A section whose values are not one parameter each (an observer type's arguments)
+    overrides :meth:`values`, :meth:`bindings` and :meth:`parameter_names`; one that is no
+    dataclass of fields (the topics, by topic) offers :meth:`read` and
+    :meth:`parameter_names` itself (:class:`TopicsSection`).
     """
 
     @classmethod
@@ -186,14 +188,14 @@ class Section:
         return Binding(cls.bindings())
 
     @classmethod
-    def parameters(cls) -> tuple:
+    def parameter_names(cls) -> tuple:
         """Return every parameter the section (with its nested sections) reads."""
         names = []
         for item in fields(cls):
             if PARAMETER in item.metadata:
                 names.append(item.metadata[PARAMETER])
             elif SECTION in item.metadata:
-                names.extend(item.metadata[SECTION].parameters())
+                names.extend(item.metadata[SECTION].parameter_names())
         return tuple(names)
 
     @classmethod
@@ -274,9 +276,9 @@ class ObserverSection(Section):
                 **OBSERVER_ARGUMENTS}
 
     @classmethod
-    def parameters(cls) -> tuple:
+    def parameter_names(cls) -> tuple:
         """Return the section's parameters, the types' arguments included."""
-        return super().parameters() + tuple(OBSERVER_ARGUMENTS.values())
+        return super().parameter_names() + tuple(OBSERVER_ARGUMENTS.values())
 
     @classmethod
     def values(cls, checked: Mapping[str, Any]) -> dict:
@@ -401,7 +403,7 @@ class TopicsSection(Mapping):
         return len(self._topics)
 
     @classmethod
-    def parameters(cls) -> tuple:
+    def parameter_names(cls) -> tuple:
         """Return every ``topics.<topic>.<setting>`` parameter."""
         return tuple(topic_parameter(topic, setting) for topic, _, _ in TOPIC_ROLES
                      for setting in TOPIC_SETTINGS)
