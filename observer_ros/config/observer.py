@@ -266,9 +266,11 @@ class ObserverSetup:
         """
         Whether the estimator designs the observer again for each new sample interval.
 
-        True for a continuous model: each new interval (rounded to
-        :attr:`interval_resolution_ns`) is sampled exactly and the poles placed there
-        again, at run time (see the module notes). A discrete model has one period.
+        True for a continuous model: the built-in types' estimators sample it exactly over
+        each new interval (rounded to :attr:`interval_resolution_ns`) and place the poles
+        there again (or solve the Riccati equation there), at run time (see the module
+        notes); a plug-in type's estimator works over each interval in its own way. A
+        discrete model has one period.
         """
         return not self.design.model.is_discrete
 
