@@ -16,6 +16,8 @@
 
 from contextlib import contextmanager
 import os
+from pathlib import Path
+import re
 import signal
 import subprocess
 import time
@@ -71,6 +73,46 @@ def spin_until(executor, predicate, timeout: float) -> bool:
             return False
         executor.spin_once(timeout_sec=0.02)
     return True
+
+
+def cpu_wait_ns(pid: Optional[int] = None) -> int:
+    """
+    Return how long the threads of a process have waited for a CPU while ready to run (ns).
+
+    Linux's scheduler statistics (``/proc/<pid>/task/<tid>/schedstat``, second field),
+    summed over the threads alive now (this process by default); 0 where there are none. On
+    a machine that is not overloaded it barely moves; on a loaded one it is the time a
+    node's timer callback came late through no fault of the node, which a timing promise
+    ("at most this late") allows on top.
+    """
+    tasks = Path('/proc') / ('self' if pid is None else str(pid)) / 'task'
+    try:
+        threads = list(tasks.iterdir())
+    except OSError:
+        return 0
+    total = 0
+    for thread in threads:
+        try:
+            total += int((thread / 'schedstat').read_text().split()[1])
+        except (OSError, IndexError, ValueError):
+            continue  # the thread has ended
+    return total
+
+
+def logged_since(stderr: str, wall_time: float, pattern) -> list:
+    """
+    Return the groups of ``pattern`` in the log lines of ``stderr`` stamped after ``wall_time``.
+
+    The lines are rcutils' default ``[LEVEL] [seconds] [node]: message`` (seconds of the
+    system clock, as ``time.time()``); ``pattern`` is matched against the message.
+    """
+    found = []
+    for stamp, message in re.findall(r'^\[[A-Z]+\] \[([0-9.]+)\] \[[^]]*\]: (.*)$', stderr,
+                                     re.MULTILINE):
+        match = re.search(pattern, message)
+        if match and float(stamp) > wall_time:
+            found.append(match.groups())
+    return found
 
 
 def overrides(**values):

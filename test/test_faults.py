@@ -25,7 +25,6 @@ across topics say nothing about the order on a loaded machine, so the timing is 
 stamps and from what state_feedback measured itself.
 """
 
-import re
 import time
 
 import numpy as np
@@ -35,7 +34,7 @@ from sensor_msgs.msg import JointState
 from conftest import CONFIG_DIR
 from observer_ros.ros.executors import make_executor
 from observer_ros.ros.messages import stamp_to_ns
-from ros_support import NodeProcess, ros_context, spin_until
+from ros_support import cpu_wait_ns, logged_since, NodeProcess, ros_context, spin_until
 
 SEED003 = str(CONFIG_DIR / 'seed003_full_order.yaml')
 #: A stable plant: on the safe command alone it stays where the loop can take it back however
@@ -44,11 +43,11 @@ SEED003 = str(CONFIG_DIR / 'seed003_full_order.yaml')
 STABLE = str(CONFIG_DIR / 'seed001_fourth_order_chen.yaml')
 SAFE = [0.125]
 TIMEOUT = 0.3
-#: The watchdog's promise (doc/guarantees.md): timeout + 10 ms on a machine that is not
-#: overloaded; on a loaded one the timer callback waits for a CPU too.
-SLACK = 0.1
+#: The watchdog's promise (doc/guarantees.md): the first safe command at most timeout + 10 ms
+#: after the last accepted estimate, plus the time the node's process waited for a CPU.
+SLACK = 0.010
 #: state_feedback's warning when the watchdog fires: how long it waited (steady clock).
-WATCHDOG_WARNING = re.compile(r'no x_hat for ([0-9.]+) s \(feedback\.timeout = ([0-9.]+) s')
+WATCHDOG_WARNING = r'^no x_hat for ([0-9.]+) s \(feedback\.timeout = 0\.3 s, steady clock'
 TOPICS = ('u_cmd', 'x_hat', 'x_true', 'y')
 
 
@@ -109,15 +108,15 @@ def stop_all(processes) -> dict:
 def test_a_killed_observer_gives_the_safe_command_in_time_and_the_loop_recovers():
     with ros_context() as context:
         listener = Listener(context)
-        outcomes = killed_observer(listener)
+        outcomes, killed, cpu_wait = killed_observer(listener)
     for name, (code, _, err) in outcomes.items():
         if name != 'observer':
             assert code == 0, (name, err)
-    # In time, as state_feedback measured it on its steady clock (each outage: the kill's,
-    # and any a starved observer caused on a loaded machine).
-    waits = [float(waited) for waited, timeout in
-             WATCHDOG_WARNING.findall(outcomes['state_feedback'][2])]
-    assert waits and all(TIMEOUT <= waited <= TIMEOUT + SLACK for waited in waits), waits
+    # In time, as state_feedback measured it on its steady clock, allowing the time its
+    # process waited for a CPU from the kill to the safe command.
+    waits = [float(waited) for waited, in logged_since(outcomes['state_feedback'][2], killed,
+                                                       WATCHDOG_WARNING)]
+    assert waits and TIMEOUT <= waits[0] <= TIMEOUT + SLACK + cpu_wait, (waits, cpu_wait)
     # Never early: a safe command comes at least feedback.timeout after the stamp of the
     # estimate behind the command before it (that estimate arrived after its stamp).
     commands = listener.samples['u_cmd']
@@ -127,13 +126,17 @@ def test_a_killed_observer_gives_the_safe_command_in_time_and_the_loop_recovers(
         outages)
 
 
-def killed_observer(listener) -> dict:
+def killed_observer(listener) -> tuple:
+    """Return the processes' outcomes, the kill's system time, the feedback's CPU wait (s)."""
     processes = {}
     try:
         running_loop(listener, processes, STABLE)
+        feedback = processes['state_feedback'].process.pid
+        cpu_wait, killed = cpu_wait_ns(feedback), time.time()
         processes['observer'].process.kill()  # a crash: no goodbye
         processes['observer'].stop()
         assert listener.wait(lambda: listener.samples['u_cmd'][-1][2] == SAFE, 10.0)
+        cpu_wait = max(0, cpu_wait_ns(feedback) - cpu_wait) / 1e9
         restarted = time.monotonic()
         processes['observer'] = start('observer', STABLE)
         assert listener.wait(lambda: any(u != SAFE for _, _, u in listener.since(
@@ -142,7 +145,7 @@ def killed_observer(listener) -> dict:
     finally:
         outcomes = stop_all(processes)
         listener.close()
-    return outcomes
+    return outcomes, killed, cpu_wait
 
 
 def test_a_killed_and_restarted_plant_restarts_the_estimator_which_converges_again():
