@@ -75,6 +75,32 @@ def spin_until(executor, predicate, timeout: float) -> bool:
     return True
 
 
+#: Seconds a console-script process may take to start and be discovered: its imports take
+#: 2-5 s on a quiet machine of two cores, over 20 s at load 15.
+PROCESS_START = 60.0
+
+#: Lockstep runs are the same bit for bit only while every answer comes within the wall-clock
+#: ``feedback.timeout`` (after it the watchdog's safe command becomes the sample's command)
+#: and ``plant.lockstep_timeout`` (after it the plant advances without the command). A loaded
+#: machine can take longer than the defaults (0.5 s, 1 s): runs that must be exact wait this
+#: long, per node.
+PATIENT_LOCKSTEP = {'state_feedback': {'feedback.timeout': 60.0},
+                    'plant_simulator': {'plant.lockstep_timeout': 10.0}}
+
+
+def patient_lockstep(executable: Optional[str] = None):
+    """
+    Return :data:`PATIENT_LOCKSTEP` for one executable as ``-p`` arguments.
+
+    Without an executable: for every node, as ``Parameter`` overrides (one process).
+    """
+    if executable is None:
+        return [Parameter(name, value=value) for settings in PATIENT_LOCKSTEP.values()
+                for name, value in settings.items()]
+    return [argument for name, value in PATIENT_LOCKSTEP.get(executable, {}).items()
+            for argument in ('-p', f'{name}:={value}')]
+
+
 def cpu_wait_ns(pid: Optional[int] = None) -> int:
     """
     Return how long the threads of a process have waited for a CPU while ready to run (ns).
@@ -195,7 +221,8 @@ def run_lockstep(config, samples, extra=(), reference=None, bag=None, storage='m
                  executor='single'):
     """Run the closed loop in lockstep; return (system, recorder arrays, plant counters)."""
     with ros_context('--params-file', str(CONFIG_DIR / config)) as context:
-        settings = overrides(plant__lockstep=True, plant__samples=samples) + list(extra)
+        settings = (overrides(plant__lockstep=True, plant__samples=samples)
+                    + patient_lockstep() + list(extra))
         loop = ClosedLoop(record=True, context=context,
                           executor=make_executor(executor, context), overrides=settings)
         helper = None

@@ -44,7 +44,8 @@ from observer_ros.nodes.plant_simulator import PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.executors import EXECUTORS, make_executor
 from observer_ros.ros.messages import ns_to_stamp, stamp_to_ns
-from ros_support import cpu_wait_ns, logged_since, NodeProcess, overrides, ros_context
+from ros_support import (
+    cpu_wait_ns, logged_since, NodeProcess, overrides, PROCESS_START, ros_context)
 
 SEED003 = CONFIG_DIR / 'seed003_full_order.yaml'
 
@@ -606,13 +607,14 @@ def test_killed_feedback_process_leaves_the_plant_on_its_safe_input_until_restar
         processes = {'plant': NodeProcess('plant_simulator', *plant_args)}
         try:
             assert spin_until(executor, lambda: all(
-                s.get_publisher_count() > 0 for s in subscriptions.values()), 30.0)
+                s.get_publisher_count() > 0 for s in subscriptions.values()), PROCESS_START)
             spin_for(executor, 1.0)
             assert not samples['x_true'], 'the plant started without its peers'
             for name in ('observer', 'state_feedback'):
                 processes[name] = NodeProcess(name, '--ros-args', '--params-file', path)
             assert spin_until(executor, lambda: len(samples['u']) > 100 and all(
-                u != [0.123] for _, u in samples['u'][-20:]), 30.0), samples['u'][-5:]
+                u != [0.123] for _, u in samples['u'][-20:]), PROCESS_START), (
+                samples['u'][-5:])
             running, plant = len(samples['u']), processes['plant'].process.pid
             cpu_wait, killed_wall = cpu_wait_ns(plant), time.time()
             killed = time.monotonic()
@@ -625,7 +627,8 @@ def test_killed_feedback_process_leaves_the_plant_on_its_safe_input_until_restar
             assert [0.123] not in [u for t, u in samples['u'][running:] if t <= killed]
             processes['state_feedback'] = NodeProcess('state_feedback', '--ros-args',
                                                       '--params-file', path)
-            assert spin_until(executor, lambda: samples['u'][-1][1] != [0.123], 30.0)
+            assert spin_until(executor, lambda: samples['u'][-1][1] != [0.123],
+                              PROCESS_START)
         finally:
             outcomes = {name: process.stop() for name, process in processes.items()}
             executor.remove_node(listener)
