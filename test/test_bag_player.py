@@ -35,12 +35,14 @@ from observer_ros.ros.recorder import TopicRecorder
 from ros_support import executor_with, NodeProcess, ros_context, run_lockstep, spin_until
 
 
-def play_through_observer(bag, params, expected: int, *player_args, remap=(), parameters=()):
+def play_through_observer(bag, params, expected: int, *player_args, remap=(), parameters=(),
+                          inputs=None):
     """
     Run ``play_bag BAG *player_args`` against an in-process observer node with sim time.
 
     Return the observer's ``x_hat`` (stamps, values), the player's stdout and the observer's
-    clock at the end (ns).
+    clock at the end (ns). ``inputs``, a list, receives ``(stamp ns, values)`` of each input
+    as the node stamped it.
     """
     ros_args = ['--params-file', str(params), '-p', 'use_sim_time:=true']
     for rule in remap:
@@ -49,6 +51,13 @@ def play_through_observer(bag, params, expected: int, *player_args, remap=(), pa
         ros_args += ['-p', assignment]
     with ros_context(*ros_args) as context:
         observer = ObserverNode(context=context)
+        if inputs is not None:
+            add_input = observer.stream.add_input
+
+            def recorded_input(stamp_ns, u, *args, **kwargs):
+                inputs.append((stamp_ns, np.array(u, dtype=float)))
+                return add_input(stamp_ns, u, *args, **kwargs)
+            observer.stream.add_input = recorded_input
         recorder = TopicRecorder(observer.system, ['x_hat'], context=context)
         with executor_with(context, observer, recorder) as executor:
             player = NodeProcess('play_bag', str(bag), *player_args)
@@ -83,22 +92,45 @@ def test_robot_bag_at_recorded_timing_with_unstamped_commands(tmp_path):
     offline = replay_bag(bag, params, *ROBOT_TOPICS)
     # Recorded timing, twice as fast. The node stamps the Float64MultiArray commands on
     # arrival with /clock; a node that lags behind reads a later /clock (rclpy keeps only the
-    # newest), so here the estimates match the offline replay closely, not bit for bit.
+    # newest), so the estimates are the offline replay's only where it kept up. On a loaded
+    # machine it lags by many samples: the estimates are then exactly what the estimator
+    # gives for the stamps the node gave the commands.
     # The player does not wait for the node here, so the node's queues hold the whole bag:
     # on a loaded machine the default depth of 10 loses messages before the node takes them.
     deep = [f'qos_overrides.{topic}.subscription.depth:=1000' for topic in ROBOT_TOPICS]
+    inputs = []
     (stamps, estimates), out, clock = play_through_observer(
         bag, params, len(truth), '--rate', '2', '--wait-for', *ROBOT_TOPICS,
-        remap=[f'y:={ROBOT_TOPICS[0]}', f'u:={ROBOT_TOPICS[1]}'], parameters=deep)
+        remap=[f'y:={ROBOT_TOPICS[0]}', f'u:={ROBOT_TOPICS[1]}'], parameters=deep,
+        inputs=inputs)
     assert 'played 300 messages' in out and 'covering 1.490 s of bag time' in out
     assert np.array_equal(stamps, offline.stamps_ns)
     assert clock == offline.outputs.log_times_ns[-1]
     assert np.array_equal(estimates[0], offline.estimates[0])
-    scale = np.abs(offline.estimates).max(axis=0)
-    assert (np.abs(estimates - offline.estimates).max(axis=0) < 1e-2 * scale).all()
-    # Converged to the recorded state (the lag above costs a little of the last digit).
-    error = np.linalg.norm(estimates - truth, axis=1)
-    assert error[-1] < 5e-2 * error.max()
+    # Every command, stamped with the /clock at its arrival: never before its log time.
+    commands = offline.inputs
+    assert len(inputs) == len(commands.log_times_ns)
+    assert all(np.array_equal(u, values) for (_, u), values in zip(inputs, commands.values))
+    given = np.array([stamp for stamp, _ in inputs])
+    assert np.all(given >= commands.log_times_ns) and np.all(np.diff(given) >= 0)
+    np.testing.assert_array_equal(estimates, estimates_for(offline, given))
+    np.testing.assert_array_equal(estimates_for(offline, commands.log_times_ns),
+                                  offline.estimates)
+    if np.array_equal(given, commands.log_times_ns):  # it kept up with every command
+        np.testing.assert_array_equal(estimates, offline.estimates)
+
+
+def estimates_for(offline, input_stamps):
+    """Return the estimates of ``offline``'s bag with its inputs stamped ``input_stamps``."""
+    stream = offline.system.make_stream()
+    events = [(stamp, 0, u) for stamp, u in zip(input_stamps, offline.inputs.values)]
+    outputs = offline.outputs
+    events += [(stamp, 1, y) for stamp, y in zip(outputs.stamps_ns, outputs.values)]
+    samples = []
+    for stamp, kind, values in sorted(events, key=lambda event: event[:2]):
+        samples += (stream.add_measurement if kind else stream.add_input)(int(stamp), values)
+    samples += stream.flush()
+    return np.array([sample.estimate for sample in samples])
 
 
 def test_robot_bag_paced_through_a_remapped_observer(tmp_path):
