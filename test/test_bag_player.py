@@ -29,7 +29,7 @@ from bag_support import (JOINT_STATE, joint_state, robot_parameters, ROBOT_TOPIC
 from conftest import CONFIG_DIR, console_script
 from observer_ros.bags.replay import replay_bag
 from observer_ros.bags.storage import BagError, Playback, read_topic
-from observer_ros.nodes.bag_player import message_class
+from observer_ros.nodes.bag_player import main as player_main, message_class
 from observer_ros.nodes.observer import ObserverNode
 from observer_ros.ros.recorder import TopicRecorder
 from ros_support import executor_with, NodeProcess, ros_context, run_lockstep, spin_until
@@ -154,6 +154,21 @@ def run_player(*args, timeout=60):
                           text=True, timeout=timeout)
 
 
+def player_in_process(capsys, *args):
+    """
+    Run ``play_bag``'s ``main`` in this process; return it as a CompletedProcess.
+
+    What the player checks and says is the same as in a process of its own, without the
+    seconds of imports each new process costs (:func:`run_player` keeps that path tested).
+    """
+    try:
+        code = player_main(['play_bag', *map(str, args)])
+    except SystemExit as e:  # argparse's errors
+        code = e.code
+    captured = capsys.readouterr()
+    return subprocess.CompletedProcess(args, code, captured.out, captured.err)
+
+
 def one_error_line(result, *fragments):
     """Assert exit status 2 and one ``play_bag: error:`` line holding every fragment."""
     assert result.returncode == 2, result.stderr
@@ -163,21 +178,24 @@ def one_error_line(result, *fragments):
         assert fragment in lines[0], lines[0]
 
 
-def test_player_errors_name_the_bag_and_topic(tmp_path):
+def test_player_errors_name_the_bag_and_topic(tmp_path, capsys):
     bag = tmp_path / 'robot'
     write_robot_bag(bag, samples=20)
     one_error_line(run_player(bag, '--topics', '/y'), 'no topic /y', '/joint_states (sensor')
-    one_error_line(run_player(bag, '--exclude', *ROBOT_TOPICS), 'nothing to play')
-    one_error_line(run_player(tmp_path / 'missing'), 'not a readable rosbag2 bag')
-    one_error_line(run_player(bag, '--paced-by', 'x_hat'),
+
+    def player(*args):
+        return player_in_process(capsys, *args)
+    one_error_line(player(bag, '--exclude', *ROBOT_TOPICS), 'nothing to play')
+    one_error_line(player(tmp_path / 'missing'), 'not a readable rosbag2 bag')
+    one_error_line(player(bag, '--paced-by', 'x_hat'),
                    '--trigger: /y is not among the played topics')
-    one_error_line(run_player(bag, '--paced-by', '/joint_states', '--trigger',
-                              '/effort_controller/commands'), 'also played from the bag')
-    one_error_line(run_player(bag, '--rate', '0'), '--rate: expected a positive factor')
+    one_error_line(player(bag, '--paced-by', '/joint_states', '--trigger',
+                          '/effort_controller/commands'), 'also played from the bag')
+    one_error_line(player(bag, '--rate', '0'), '--rate: expected a positive factor')
     # Paced, with no node under test: a clear error after --wait, not a hang.
-    one_error_line(run_player(bag, '--paced-by', 'x_hat', '--trigger', '/joint_states',
-                              '--wait', '1'), 'nobody subscribed to /joint_states')
-    one_error_line(run_player(bag, '--wait-for', '/y'), '--wait-for: /y not among the played')
+    one_error_line(player(bag, '--paced-by', 'x_hat', '--trigger', '/joint_states',
+                          '--wait', '1'), 'nobody subscribed to /joint_states')
+    one_error_line(player(bag, '--wait-for', '/y'), '--wait-for: /y not among the played')
     with pytest.raises(BagError, match='foo_msgs/msg/Bar is not installed here'):
         message_class('foo_msgs/msg/Bar', '/t')
 
@@ -226,23 +244,26 @@ def test_topics_recorded_without_a_slash_are_selected_paced_and_awaited(tmp_path
     assert np.array_equal(estimates, offline.estimates)
 
 
-def test_exclude_refuses_a_topic_the_bag_does_not_have(tmp_path):
+def test_exclude_refuses_a_topic_the_bag_does_not_have(tmp_path, capsys):
     bag = tmp_path / 'robot'
     write_robot_bag(bag, samples=10, topics=RELATIVE_TOPICS)
-    one_error_line(run_player(bag, '--exclude', 'x_hatt', '--wait', '0'),
+
+    def player(*args):
+        return player_in_process(capsys, *args)
+    one_error_line(player(bag, '--exclude', 'x_hatt', '--wait', '0'),
                    '--exclude: ', 'has no topic x_hatt', 'the bag has joint_states (sensor_msgs'
                    '/msg/JointState), effort_controller/commands (std_msgs')
-    one_error_line(run_player(bag, '--exclude', *RELATIVE_TOPICS), 'nothing to play')
+    one_error_line(player(bag, '--exclude', *RELATIVE_TOPICS), 'nothing to play')
     # Excluded by either spelling: only the commands are played.
     played = run_player(bag, '--exclude', ROBOT_TOPICS[0], '--rate', '100', '--wait', '0')
     assert played.returncode == 0, played.stderr
     assert 'played 10 messages (/effort_controller/commands 10)' in played.stdout
-    one_error_line(run_player(bag, '--paced-by', 'x_hat', '--trigger', 'y'),
+    one_error_line(player(bag, '--paced-by', 'x_hat', '--trigger', 'y'),
                    '--trigger: /y is not among the played topics (effort_controller/commands, '
                    'joint_states)')
 
 
-def test_every_missing_message_type_is_named_at_once(tmp_path):
+def test_every_missing_message_type_is_named_at_once(tmp_path, capsys):
     store = get_typestore(Stores.ROS2_JAZZY)
     store.register(get_types_from_msg('float64 x', 'foo_msgs/msg/Bar'))
     store.register(get_types_from_msg('float64 y', 'baz_msgs/msg/Qux'))
@@ -257,7 +278,7 @@ def test_every_missing_message_type_is_named_at_once(tmp_path):
             writer.write(quxes, index, bytes(store.serialize_cdr(
                 store.types['baz_msgs/msg/Qux'](y=1.0), 'baz_msgs/msg/Qux')))
             writer.write(joints, index, serialize(joint_state(index + 1, ['a'], [1.0])))
-    one_error_line(run_player(bag, '--wait', '0'),
+    one_error_line(player_in_process(capsys, bag, '--wait', '0'),
                    'message types not installed here: /a (foo_msgs/msg/Bar), b '
                    '(baz_msgs/msg/Qux); leave them out with --exclude /a b')
     played = run_player(bag, '--exclude', '/a', 'b', '--rate', '100', '--wait', '0')
