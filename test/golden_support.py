@@ -101,13 +101,14 @@ def design_json(name: str, script: str) -> dict:
 
 def closed_loop_record(name: str) -> dict:
     """Run the lockstep closed loop of a config; return every recorded topic's arrays."""
-    from ros_support import overrides, ros_context
+    from ros_support import overrides, patient_lockstep, ros_context
     from observer_ros.nodes.closed_loop import ClosedLoop
     from observer_ros.ros.executors import make_executor, spin_until
     from observer_ros.ros.recorder import TopicRecorder
 
     with ros_context('--params-file', str(config_path(name))) as context:
-        settings = overrides(plant__lockstep=True, plant__samples=CLOSED_LOOP_SAMPLES)
+        settings = (overrides(plant__lockstep=True, plant__samples=CLOSED_LOOP_SAMPLES)
+                    + patient_lockstep())
         loop = ClosedLoop(record=True, context=context,
                           executor=make_executor('single', context), overrides=settings)
         extra = None

@@ -16,6 +16,8 @@
 
 from contextlib import contextmanager
 import os
+from pathlib import Path
+import re
 import signal
 import subprocess
 import time
@@ -71,6 +73,72 @@ def spin_until(executor, predicate, timeout: float) -> bool:
             return False
         executor.spin_once(timeout_sec=0.02)
     return True
+
+
+#: Seconds a console-script process may take to start and be discovered: its imports take
+#: 2-5 s on a quiet machine of two cores, over 20 s at load 15.
+PROCESS_START = 60.0
+
+#: Lockstep runs are the same bit for bit only while every answer comes within the wall-clock
+#: ``feedback.timeout`` (after it the watchdog's safe command becomes the sample's command)
+#: and ``plant.lockstep_timeout`` (after it the plant advances without the command). A loaded
+#: machine can take longer than the defaults (0.5 s, 1 s): runs that must be exact wait this
+#: long, per node.
+PATIENT_LOCKSTEP = {'state_feedback': {'feedback.timeout': 60.0},
+                    'plant_simulator': {'plant.lockstep_timeout': 10.0}}
+
+
+def patient_lockstep(executable: Optional[str] = None):
+    """
+    Return :data:`PATIENT_LOCKSTEP` for one executable as ``-p`` arguments.
+
+    Without an executable: for every node, as ``Parameter`` overrides (one process).
+    """
+    if executable is None:
+        return [Parameter(name, value=value) for settings in PATIENT_LOCKSTEP.values()
+                for name, value in settings.items()]
+    return [argument for name, value in PATIENT_LOCKSTEP.get(executable, {}).items()
+            for argument in ('-p', f'{name}:={value}')]
+
+
+def cpu_wait_ns(pid: Optional[int] = None) -> int:
+    """
+    Return how long the threads of a process have waited for a CPU while ready to run (ns).
+
+    Linux's scheduler statistics (``/proc/<pid>/task/<tid>/schedstat``, second field),
+    summed over the threads alive now (this process by default); 0 where there are none. On
+    a machine that is not overloaded it barely moves; on a loaded one it is the time a
+    node's timer callback came late through no fault of the node, which a timing promise
+    ("at most this late") allows on top.
+    """
+    tasks = Path('/proc') / ('self' if pid is None else str(pid)) / 'task'
+    try:
+        threads = list(tasks.iterdir())
+    except OSError:
+        return 0
+    total = 0
+    for thread in threads:
+        try:
+            total += int((thread / 'schedstat').read_text().split()[1])
+        except (OSError, IndexError, ValueError):
+            continue  # the thread has ended
+    return total
+
+
+def logged_since(stderr: str, wall_time: float, pattern) -> list:
+    """
+    Return the groups of ``pattern`` in the log lines of ``stderr`` stamped after ``wall_time``.
+
+    The lines are rcutils' default ``[LEVEL] [seconds] [node]: message`` (seconds of the
+    system clock, as ``time.time()``); ``pattern`` is matched against the message.
+    """
+    found = []
+    for stamp, message in re.findall(r'^\[[A-Z]+\] \[([0-9.]+)\] \[[^]]*\]: (.*)$', stderr,
+                                     re.MULTILINE):
+        match = re.search(pattern, message)
+        if match and float(stamp) > wall_time:
+            found.append(match.groups())
+    return found
 
 
 def overrides(**values):
@@ -153,7 +221,8 @@ def run_lockstep(config, samples, extra=(), reference=None, bag=None, storage='m
                  executor='single'):
     """Run the closed loop in lockstep; return (system, recorder arrays, plant counters)."""
     with ros_context('--params-file', str(CONFIG_DIR / config)) as context:
-        settings = overrides(plant__lockstep=True, plant__samples=samples) + list(extra)
+        settings = (overrides(plant__lockstep=True, plant__samples=samples)
+                    + patient_lockstep() + list(extra))
         loop = ClosedLoop(record=True, context=context,
                           executor=make_executor(executor, context), overrides=settings)
         helper = None

@@ -29,18 +29,20 @@ from bag_support import (JOINT_STATE, joint_state, robot_parameters, ROBOT_TOPIC
 from conftest import CONFIG_DIR, console_script
 from observer_ros.bags.replay import replay_bag
 from observer_ros.bags.storage import BagError, Playback, read_topic
-from observer_ros.nodes.bag_player import message_class
+from observer_ros.nodes.bag_player import main as player_main, message_class
 from observer_ros.nodes.observer import ObserverNode
 from observer_ros.ros.recorder import TopicRecorder
 from ros_support import executor_with, NodeProcess, ros_context, run_lockstep, spin_until
 
 
-def play_through_observer(bag, params, expected: int, *player_args, remap=(), parameters=()):
+def play_through_observer(bag, params, expected: int, *player_args, remap=(), parameters=(),
+                          inputs=None):
     """
     Run ``play_bag BAG *player_args`` against an in-process observer node with sim time.
 
     Return the observer's ``x_hat`` (stamps, values), the player's stdout and the observer's
-    clock at the end (ns).
+    clock at the end (ns). ``inputs``, a list, receives ``(stamp ns, values)`` of each input
+    as the node stamped it.
     """
     ros_args = ['--params-file', str(params), '-p', 'use_sim_time:=true']
     for rule in remap:
@@ -49,6 +51,13 @@ def play_through_observer(bag, params, expected: int, *player_args, remap=(), pa
         ros_args += ['-p', assignment]
     with ros_context(*ros_args) as context:
         observer = ObserverNode(context=context)
+        if inputs is not None:
+            add_input = observer.stream.add_input
+
+            def recorded_input(stamp_ns, u, *args, **kwargs):
+                inputs.append((stamp_ns, np.array(u, dtype=float)))
+                return add_input(stamp_ns, u, *args, **kwargs)
+            observer.stream.add_input = recorded_input
         recorder = TopicRecorder(observer.system, ['x_hat'], context=context)
         with executor_with(context, observer, recorder) as executor:
             player = NodeProcess('play_bag', str(bag), *player_args)
@@ -83,22 +92,45 @@ def test_robot_bag_at_recorded_timing_with_unstamped_commands(tmp_path):
     offline = replay_bag(bag, params, *ROBOT_TOPICS)
     # Recorded timing, twice as fast. The node stamps the Float64MultiArray commands on
     # arrival with /clock; a node that lags behind reads a later /clock (rclpy keeps only the
-    # newest), so here the estimates match the offline replay closely, not bit for bit.
+    # newest), so the estimates are the offline replay's only where it kept up. On a loaded
+    # machine it lags by many samples: the estimates are then exactly what the estimator
+    # gives for the stamps the node gave the commands.
     # The player does not wait for the node here, so the node's queues hold the whole bag:
     # on a loaded machine the default depth of 10 loses messages before the node takes them.
     deep = [f'qos_overrides.{topic}.subscription.depth:=1000' for topic in ROBOT_TOPICS]
+    inputs = []
     (stamps, estimates), out, clock = play_through_observer(
         bag, params, len(truth), '--rate', '2', '--wait-for', *ROBOT_TOPICS,
-        remap=[f'y:={ROBOT_TOPICS[0]}', f'u:={ROBOT_TOPICS[1]}'], parameters=deep)
+        remap=[f'y:={ROBOT_TOPICS[0]}', f'u:={ROBOT_TOPICS[1]}'], parameters=deep,
+        inputs=inputs)
     assert 'played 300 messages' in out and 'covering 1.490 s of bag time' in out
     assert np.array_equal(stamps, offline.stamps_ns)
     assert clock == offline.outputs.log_times_ns[-1]
     assert np.array_equal(estimates[0], offline.estimates[0])
-    scale = np.abs(offline.estimates).max(axis=0)
-    assert (np.abs(estimates - offline.estimates).max(axis=0) < 1e-2 * scale).all()
-    # Converged to the recorded state (the lag above costs a little of the last digit).
-    error = np.linalg.norm(estimates - truth, axis=1)
-    assert error[-1] < 5e-2 * error.max()
+    # Every command, stamped with the /clock at its arrival: never before its log time.
+    commands = offline.inputs
+    assert len(inputs) == len(commands.log_times_ns)
+    assert all(np.array_equal(u, values) for (_, u), values in zip(inputs, commands.values))
+    given = np.array([stamp for stamp, _ in inputs])
+    assert np.all(given >= commands.log_times_ns) and np.all(np.diff(given) >= 0)
+    np.testing.assert_array_equal(estimates, estimates_for(offline, given))
+    np.testing.assert_array_equal(estimates_for(offline, commands.log_times_ns),
+                                  offline.estimates)
+    if np.array_equal(given, commands.log_times_ns):  # it kept up with every command
+        np.testing.assert_array_equal(estimates, offline.estimates)
+
+
+def estimates_for(offline, input_stamps):
+    """Return the estimates of ``offline``'s bag with its inputs stamped ``input_stamps``."""
+    stream = offline.system.make_stream()
+    events = [(stamp, 0, u) for stamp, u in zip(input_stamps, offline.inputs.values)]
+    outputs = offline.outputs
+    events += [(stamp, 1, y) for stamp, y in zip(outputs.stamps_ns, outputs.values)]
+    samples = []
+    for stamp, kind, values in sorted(events, key=lambda event: event[:2]):
+        samples += (stream.add_measurement if kind else stream.add_input)(int(stamp), values)
+    samples += stream.flush()
+    return np.array([sample.estimate for sample in samples])
 
 
 def test_robot_bag_paced_through_a_remapped_observer(tmp_path):
@@ -122,6 +154,21 @@ def run_player(*args, timeout=60):
                           text=True, timeout=timeout)
 
 
+def player_in_process(capsys, *args):
+    """
+    Run ``play_bag``'s ``main`` in this process; return it as a CompletedProcess.
+
+    What the player checks and says is the same as in a process of its own, without the
+    seconds of imports each new process costs (:func:`run_player` keeps that path tested).
+    """
+    try:
+        code = player_main(['play_bag', *map(str, args)])
+    except SystemExit as e:  # argparse's errors
+        code = e.code
+    captured = capsys.readouterr()
+    return subprocess.CompletedProcess(args, code, captured.out, captured.err)
+
+
 def one_error_line(result, *fragments):
     """Assert exit status 2 and one ``play_bag: error:`` line holding every fragment."""
     assert result.returncode == 2, result.stderr
@@ -131,21 +178,24 @@ def one_error_line(result, *fragments):
         assert fragment in lines[0], lines[0]
 
 
-def test_player_errors_name_the_bag_and_topic(tmp_path):
+def test_player_errors_name_the_bag_and_topic(tmp_path, capsys):
     bag = tmp_path / 'robot'
     write_robot_bag(bag, samples=20)
     one_error_line(run_player(bag, '--topics', '/y'), 'no topic /y', '/joint_states (sensor')
-    one_error_line(run_player(bag, '--exclude', *ROBOT_TOPICS), 'nothing to play')
-    one_error_line(run_player(tmp_path / 'missing'), 'not a readable rosbag2 bag')
-    one_error_line(run_player(bag, '--paced-by', 'x_hat'),
+
+    def player(*args):
+        return player_in_process(capsys, *args)
+    one_error_line(player(bag, '--exclude', *ROBOT_TOPICS), 'nothing to play')
+    one_error_line(player(tmp_path / 'missing'), 'not a readable rosbag2 bag')
+    one_error_line(player(bag, '--paced-by', 'x_hat'),
                    '--trigger: /y is not among the played topics')
-    one_error_line(run_player(bag, '--paced-by', '/joint_states', '--trigger',
-                              '/effort_controller/commands'), 'also played from the bag')
-    one_error_line(run_player(bag, '--rate', '0'), '--rate: expected a positive factor')
+    one_error_line(player(bag, '--paced-by', '/joint_states', '--trigger',
+                          '/effort_controller/commands'), 'also played from the bag')
+    one_error_line(player(bag, '--rate', '0'), '--rate: expected a positive factor')
     # Paced, with no node under test: a clear error after --wait, not a hang.
-    one_error_line(run_player(bag, '--paced-by', 'x_hat', '--trigger', '/joint_states',
-                              '--wait', '1'), 'nobody subscribed to /joint_states')
-    one_error_line(run_player(bag, '--wait-for', '/y'), '--wait-for: /y not among the played')
+    one_error_line(player(bag, '--paced-by', 'x_hat', '--trigger', '/joint_states',
+                          '--wait', '1'), 'nobody subscribed to /joint_states')
+    one_error_line(player(bag, '--wait-for', '/y'), '--wait-for: /y not among the played')
     with pytest.raises(BagError, match='foo_msgs/msg/Bar is not installed here'):
         message_class('foo_msgs/msg/Bar', '/t')
 
@@ -194,23 +244,26 @@ def test_topics_recorded_without_a_slash_are_selected_paced_and_awaited(tmp_path
     assert np.array_equal(estimates, offline.estimates)
 
 
-def test_exclude_refuses_a_topic_the_bag_does_not_have(tmp_path):
+def test_exclude_refuses_a_topic_the_bag_does_not_have(tmp_path, capsys):
     bag = tmp_path / 'robot'
     write_robot_bag(bag, samples=10, topics=RELATIVE_TOPICS)
-    one_error_line(run_player(bag, '--exclude', 'x_hatt', '--wait', '0'),
+
+    def player(*args):
+        return player_in_process(capsys, *args)
+    one_error_line(player(bag, '--exclude', 'x_hatt', '--wait', '0'),
                    '--exclude: ', 'has no topic x_hatt', 'the bag has joint_states (sensor_msgs'
                    '/msg/JointState), effort_controller/commands (std_msgs')
-    one_error_line(run_player(bag, '--exclude', *RELATIVE_TOPICS), 'nothing to play')
+    one_error_line(player(bag, '--exclude', *RELATIVE_TOPICS), 'nothing to play')
     # Excluded by either spelling: only the commands are played.
     played = run_player(bag, '--exclude', ROBOT_TOPICS[0], '--rate', '100', '--wait', '0')
     assert played.returncode == 0, played.stderr
     assert 'played 10 messages (/effort_controller/commands 10)' in played.stdout
-    one_error_line(run_player(bag, '--paced-by', 'x_hat', '--trigger', 'y'),
+    one_error_line(player(bag, '--paced-by', 'x_hat', '--trigger', 'y'),
                    '--trigger: /y is not among the played topics (effort_controller/commands, '
                    'joint_states)')
 
 
-def test_every_missing_message_type_is_named_at_once(tmp_path):
+def test_every_missing_message_type_is_named_at_once(tmp_path, capsys):
     store = get_typestore(Stores.ROS2_JAZZY)
     store.register(get_types_from_msg('float64 x', 'foo_msgs/msg/Bar'))
     store.register(get_types_from_msg('float64 y', 'baz_msgs/msg/Qux'))
@@ -225,7 +278,7 @@ def test_every_missing_message_type_is_named_at_once(tmp_path):
             writer.write(quxes, index, bytes(store.serialize_cdr(
                 store.types['baz_msgs/msg/Qux'](y=1.0), 'baz_msgs/msg/Qux')))
             writer.write(joints, index, serialize(joint_state(index + 1, ['a'], [1.0])))
-    one_error_line(run_player(bag, '--wait', '0'),
+    one_error_line(player_in_process(capsys, bag, '--wait', '0'),
                    'message types not installed here: /a (foo_msgs/msg/Bar), b '
                    '(baz_msgs/msg/Qux); leave them out with --exclude /a b')
     played = run_player(bag, '--exclude', '/a', 'b', '--rate', '100', '--wait', '0')

@@ -41,7 +41,9 @@ from observer_ros.core.design.integral import augmented_pair
 from observer_ros.core.evaluation import align
 from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.recorder import TopicRecorder
-from ros_support import executor_with, NodeProcess, ros_context, run_lockstep, spin_until
+from ros_support import (
+    executor_with, NodeProcess, patient_lockstep, PROCESS_START, ros_context, run_lockstep,
+    spin_until)
 
 CONFIG = 'robot_joint.yaml'
 SAMPLES = 800
@@ -143,7 +145,7 @@ def robot_process(executable, *args):
     """Start a console-script node on the recipe with the robot's topic names."""
     remaps = ['-r', f'y:={JOINT_STATES}', '-r', f'u:={COMMANDS}', '-r', f'u_cmd:={SERVO_COMMAND}']
     return NodeProcess(executable, '--ros-args', '--params-file', str(CONFIG_DIR / CONFIG),
-                       *remaps, *args)
+                       *remaps, *patient_lockstep(executable), *args)
 
 
 class JointStatesHat(Node):
@@ -178,7 +180,8 @@ def test_three_processes_equal_the_lockstep_loop_and_publish_joint_states_hat(lo
                 assert spin_until(executor, lambda: x_hat.get_publisher_count() > 0
                                   and hat.subscription.get_publisher_count() > 0
                                   and recorder.count_subscribers('/x_hat') >= 2
-                                  and reference.get_subscription_count() > 0, 30.0), (
+                                  and reference.get_subscription_count() > 0,
+                                  PROCESS_START), (
                     [p.stop() for p in processes])
                 processes.append(robot_process(
                     'plant_simulator', '-p', 'plant.lockstep:=true',

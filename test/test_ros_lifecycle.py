@@ -30,7 +30,8 @@ from observer_ros.config import load_parameter_file
 from observer_ros.core.streaming import EventStream
 from observer_ros.nodes.observer_lifecycle import ObserverLifecycleNode
 from observer_ros.nodes.state_feedback_lifecycle import StateFeedbackLifecycleNode
-from ros_support import executor_with, NodeProcess, overrides, ros_context, spin_until
+from ros_support import (
+    executor_with, NodeProcess, overrides, PROCESS_START, ros_context, spin_until)
 from test_ros_nodes import (
     Driver, joint_state, PERIOD_NS, plant_samples, SEED003, set_parameters, START_NS)
 
@@ -49,12 +50,12 @@ KALMAN = {'observer__type': 'kalman', 'observer__poles': [],
 class Lifecycle:
     """A client of one node's lifecycle services, like ``ros2 lifecycle``."""
 
-    def __init__(self, client_node, executor, node_name: str) -> None:
+    def __init__(self, client_node, executor, node_name: str, timeout: float = 5.0) -> None:
         self.executor = executor
         self.change_client = client_node.create_client(ChangeState, f'{node_name}/change_state')
         self.get = client_node.create_client(GetState, f'{node_name}/get_state')
-        assert self.change_client.wait_for_service(timeout_sec=5.0)
-        assert self.get.wait_for_service(timeout_sec=5.0)
+        assert self.change_client.wait_for_service(timeout_sec=timeout)
+        assert self.get.wait_for_service(timeout_sec=timeout)
 
     def _call(self, client, request):
         future = client.call_async(request)
@@ -275,7 +276,9 @@ def test_autostart_console_script_is_active_and_stops_cleanly():
         with ros_context() as context:
             driver = Driver(context)
             with executor_with(context, driver.node) as executor:
-                lifecycle = Lifecycle(driver.node, executor, 'managed_observer')
+                # A process: its start and discovery take seconds on a loaded machine.
+                lifecycle = Lifecycle(driver.node, executor, 'managed_observer',
+                                      timeout=PROCESS_START)
                 assert lifecycle.state() == 'active'
     finally:
         code, _, err = process.stop()

@@ -19,7 +19,6 @@ A recorder in the test process listens over DDS (same isolated domain).
 """
 
 import subprocess
-import time
 
 import numpy as np
 import pytest
@@ -28,7 +27,9 @@ from conftest import CONFIG_DIR, console_script
 from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.evaluation import align, decay_rate, settling_time
 from observer_ros.ros.recorder import TopicRecorder
-from ros_support import executor_with, NodeProcess, ros_context, run_lockstep, spin_until
+from ros_support import (
+    executor_with, NodeProcess, patient_lockstep, PROCESS_START, ros_context, run_lockstep,
+    spin_until)
 
 EXECUTABLES = ('plant_simulator', 'observer', 'state_feedback', 'closed_loop')
 
@@ -78,23 +79,34 @@ def test_real_time_plant_and_observer_processes(config):
     # Pinned at zero: the first measurement alone would already give this plant's state.
     pinned = f'observer.initial_state:={[0.0] * system.model.n_states}'
     with ros_context() as context:
-        recorder = TopicRecorder(system, ('x_true', 'x_hat'), context=context)
+        # The recorder subscribes y too, and the plant waits for two subscribers on y (the
+        # observer's and the recorder's): it starts once it knows the recorder, so x_true is
+        # recorded from its first sample (discovery can take seconds).
+        recorder = TopicRecorder(system, ('x_true', 'x_hat', 'y'), context=context)
         x_hat = next(s for s in recorder.subscriptions if s.topic_name == '/x_hat')
         processes = [NodeProcess('observer', '--ros-args', '--params-file', path, '-p', pinned)]
         try:
             with executor_with(context, recorder) as executor:
                 # The recorder is matched to x_hat before the plant starts, so it receives
                 # the observer's first estimate (discovery can take seconds).
-                assert spin_until(executor, lambda: x_hat.get_publisher_count() > 0, 30.0), (
+                assert spin_until(executor, lambda: x_hat.get_publisher_count() > 0,
+                                  PROCESS_START), (
                     processes[0].stop())
                 processes.append(
                     NodeProcess('plant_simulator', '--ros-args', '--params-file', path,
-                                '-p', 'plant.wait_for_command:=false'))
+                                '-p', 'plant.wait_for_command:=false',
+                                '-p', 'plant.lockstep_subscribers:=2'))
                 started = spin_until(executor, lambda: recorder.count('x_hat') > 0 and
-                                     recorder.count('x_true') > 0, 30.0)
+                                     recorder.count('x_true') > 0, PROCESS_START)
                 assert started, [p.stop() for p in processes]
-                first = time.monotonic()
-                spin_until(executor, lambda: time.monotonic() - first > duration, duration + 5)
+                # The plant's stamps are its simulated time, which falls behind the wall
+                # clock on a loaded machine: wait for `duration` of them (bounded).
+
+                def covered() -> bool:
+                    stamps = recorder.stamps['x_hat']
+                    return (stamps[-1] - stamps[0]) / 1e9 > duration
+
+                assert spin_until(executor, covered, 3 * duration + 10.0)
                 truth = recorder.arrays('x_true')
                 estimate = recorder.arrays('x_hat')
         finally:
@@ -128,17 +140,18 @@ def test_three_processes_in_lockstep_equal_the_one_process_loop(executor):
             processes = [
                 NodeProcess('observer', *choice, '--ros-args', '--params-file', path, *sim_time),
                 NodeProcess('state_feedback', *choice, '--ros-args', '--params-file', path,
-                            *sim_time)]
+                            *sim_time, *patient_lockstep('state_feedback'))]
             x_hat = next(s for s in recorder.subscriptions if s.topic_name == '/x_hat')
             try:
                 # The lockstep plant waits for its own peers only: the recorder is matched to
                 # the observer's x_hat first and sees the state feedback's x_hat subscription.
                 assert spin_until(executor, lambda: x_hat.get_publisher_count() > 0
-                                  and recorder.count_subscribers('/x_hat') >= 2, 30.0)
+                                  and recorder.count_subscribers('/x_hat') >= 2, PROCESS_START)
                 processes.append(NodeProcess(
                     'plant_simulator', *choice, '--ros-args', '--params-file', path,
                     '-p', 'plant.lockstep:=true', '-p', f'plant.samples:={samples}',
-                    '-p', 'plant.lockstep_subscribers:=2'))
+                    '-p', 'plant.lockstep_subscribers:=2',
+                    *patient_lockstep('plant_simulator')))
                 plant = processes[-1].process
                 spin_until(executor, lambda: plant.poll() is not None, 60.0)
                 spin_until(executor, lambda: recorder.count('x_hat') >= samples, 2.0)

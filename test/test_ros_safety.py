@@ -15,12 +15,17 @@
 """
 The safety promises of the feedback watchdog and the plant simulator, over real DDS.
 
-In-process nodes on both executors; times are taken on the receiving side with the steady
-clock (``time.monotonic``). The promised bounds are the module constants README cites.
+In-process nodes on both executors. A promise of the form "not before" is checked from the
+outside on the steady clock (``time.monotonic``): from when the test published to when it
+received. A bound of the form "at most this late" is checked where the node measures it
+(the watchdog's wait from the estimate it accepted to the safe command it sent), since on a
+loaded machine the test's own receiving can lag by tens of milliseconds either way, and it
+allows on top the time the process waited for a CPU meanwhile (:func:`cpu_wait_ns`: about
+none on a machine that is not overloaded). The promised bounds are the module constants
+doc/guarantees.md cites.
 """
 
 import re
-import statistics
 import time
 
 import numpy as np
@@ -39,23 +44,25 @@ from observer_ros.nodes.plant_simulator import PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.executors import EXECUTORS, make_executor
 from observer_ros.ros.messages import ns_to_stamp, stamp_to_ns
-from ros_support import NodeProcess, overrides, ros_context
+from ros_support import (
+    cpu_wait_ns, logged_since, NodeProcess, overrides, PROCESS_START, ros_context)
 
 SEED003 = CONFIG_DIR / 'seed003_full_order.yaml'
 
 #: feedback.timeout of these tests.
 TIMEOUT = 0.2
-#: The promise (README, State feedback): the first safe command within feedback.timeout plus
-#: this many seconds after the last accepted estimate, on a machine that is not overloaded.
+#: The promise (doc/guarantees.md): the first safe command within feedback.timeout plus
+#: this many seconds after the last accepted estimate, plus the time the node's process
+#: waited for a CPU meanwhile (none to speak of on a machine that is not overloaded).
 WATCHDOG_MARGIN = 0.010
-#: One trial may be late by a scheduling hiccup of a loaded machine; the median of the
-#: trials must keep the promise, every trial this looser bound.
-LOADED_MARGIN = 0.050
 SAFE_COMMAND = [0.25]
 SAFE_PERIOD = 0.05
 ESTIMATE = [0.1, 0.2]
 #: Period of the estimates and of the test's /clock.
 STEP = 0.01
+#: Seconds to wait for a message within one process (bounded waits cost nothing when it
+#: comes; on a loaded machine the test's own receiving lags).
+DELIVERY = 5.0
 
 
 def stamp_of(message) -> int:
@@ -104,6 +111,26 @@ class FeedbackBench:
         self.reference = self.node.create_publisher(JointState, 'reference', 10)
         self.clock = self.node.create_publisher(ClockMessage, '/clock', 10)
         self.commands = []  # (monotonic receive time, stamp ns, values)
+        # The node's own account of each safe command, recorded as it sends: [steady ns when
+        # sent, steady ns when the last estimate was accepted, cpu_wait_ns() then, outages
+        # so far (the stale counter), the stamp it got].
+        self.safe_sent = []
+        feedback = self.feedback
+        send, publish = feedback.send_safe_command, feedback.publisher.publish
+
+        def recorded_send():
+            self.safe_sent.append([time.monotonic_ns(), feedback.last_estimate_ns,
+                                   cpu_wait_ns(), feedback.counters['stale'], None])
+            send()
+
+        def recorded_publish(raw):
+            if self.safe_sent and self.safe_sent[-1][4] is None:
+                self.safe_sent[-1][4] = feedback.codecs['u_cmd'].decode(raw)[0]
+            publish(raw)
+        feedback.send_safe_command = recorded_send
+        feedback.publisher.publish = recorded_publish
+        # The last estimate published: monotonic time, cpu_wait_ns() just before.
+        self.published_at, self.cpu_wait_at = None, 0
         self.command_subscription = self.node.create_subscription(
             JointState, 'u_cmd', lambda m: self.commands.append(
                 (time.monotonic(), stamp_of(m), list(m.position))), 100)
@@ -144,6 +171,8 @@ class FeedbackBench:
         self.stamp_ns += round(STEP * NANOSECONDS)
         message = JointState(name=['x1', 'x2'], position=[float(v) for v in values])
         ns_to_stamp(message.header.stamp, self.stamp_ns)
+        self.cpu_wait_at = cpu_wait_ns()
+        self.published_at = time.monotonic()
         self.x_hat.publish(message)
         return self.stamp_ns
 
@@ -158,29 +187,54 @@ class FeedbackBench:
             self.tick()
             stamp = self.publish_estimate()
             spin_for(self.executor, STEP)
-        assert spin_until(self.executor, lambda: self.received(stamp), 2.0, self.tick), (
+        assert spin_until(self.executor, lambda: self.received(stamp), DELIVERY, self.tick), (
             'no command for the last estimate')
         return self.received(stamp)[0][0]
 
-    def outage_delay(self, at_outage=None) -> float:
+    def outage_delay(self, at_outage=None) -> tuple:
         """
-        Run estimates, stop them and return the seconds to the first safe command.
+        Run estimates, stop them; return the delays (s) to the first safe command.
 
+        ``(received, sent, cpu wait)``: from the test's publishing of the last estimate to its
+        receiving the safe command; the node's wait from accepting that estimate to sending
+        it; how long the process waited for a CPU from that publishing to that sending.
         ``at_outage()`` runs right after the last estimate's command arrived.
         """
-        first = len(self.commands)
-        last = self.run_estimates()
-        during = [c for c in self.commands[first:] if c[0] <= last]
-        assert all(c[2] != SAFE_COMMAND for c in during[1:]), (
-            'a safe command while estimates were arriving')
+        feedback = self.feedback
+        stale = feedback.counters['stale']
+        self.run_estimates()
+        published, cpu_wait = self.published_at, self.cpu_wait_at
         if at_outage is not None:
             at_outage()
-        count = len(self.commands)
+        assert spin_until(self.executor, lambda: feedback.counters['stale'] > stale,
+                          TIMEOUT + DELIVERY, self.tick), 'no outage after the last estimate'
+        # The outage's first safe command, sent on going stale; the one outage came after the
+        # last estimate, none while they came every STEP.
+        sent_ns, accepted_ns, cpu_wait_then, _, stamp = next(
+            sent for sent in self.safe_sent if sent[3] == stale + 1)
+        assert feedback.counters['stale'] == stale + 1 and (
+            accepted_ns == feedback.last_estimate_ns), 'an outage while estimates were arriving'
+        assert spin_until(self.executor, lambda: self.received(stamp), DELIVERY, self.tick), (
+            'the safe command never arrived')
+        self.first_safe = self.received(stamp)[0]
+        return (self.first_safe[0] - published, (sent_ns - accepted_ns) / NANOSECONDS,
+                max(0, cpu_wait_then - cpu_wait) / NANOSECONDS)
+
+    def safe_stamps_after(self, first_stamp: int, seconds: float) -> tuple:
+        """
+        Stamps of the safe commands sent in ``seconds`` of node clock from ``first_stamp``.
+
+        Waits (bounded) until a command stamped after that window has been received. Returns
+        the stamps and how long the process waited for a CPU meanwhile (s): a repeat due
+        while the node waits longer than a period is skipped, not sent twice.
+        """
+        end = first_stamp + round(seconds * NANOSECONDS)
+        before = cpu_wait_ns()
         assert spin_until(self.executor, lambda: any(
-            c[2] == SAFE_COMMAND for c in self.commands[count:]), TIMEOUT + 2.0, self.tick), (
-            f'no safe command within {TIMEOUT + 2.0} s of the last estimate')
-        safe = next(c for c in self.commands[count:] if c[2] == SAFE_COMMAND)
-        return safe[0] - last
+            c[1] >= end for c in self.commands), seconds + 5.0), 'the repeats stopped'
+        window = [c for c in self.commands if first_stamp <= c[1] < end]
+        assert all(c[2] == SAFE_COMMAND for c in window), window
+        return [c[1] for c in window], max(0, cpu_wait_ns() - before) / NANOSECONDS
 
 
 @pytest.fixture
@@ -204,12 +258,18 @@ def bench_factory():
             item.__exit__(None, None, None)
 
 
-def assert_within_promise(delays) -> None:
-    """Check that the median delay keeps the promise, each the loaded bound, none is early."""
-    text = ', '.join(f'{1e3 * d:.1f} ms' for d in delays)
-    assert statistics.median(delays) <= TIMEOUT + WATCHDOG_MARGIN, text
-    assert max(delays) <= TIMEOUT + LOADED_MARGIN, text
-    assert min(delays) >= TIMEOUT - 0.005, text
+def assert_within_promise(delays, timeout: float = TIMEOUT) -> None:
+    """
+    Check the delays of :meth:`FeedbackBench.outage_delay`.
+
+    None early as the test saw it or as the node measured it; each within the promise as the
+    node measured it, plus the time its process waited for a CPU meanwhile.
+    """
+    text = ', '.join(f'{1e3 * r:.1f} ms (sent after {1e3 * s:.1f} ms, {1e3 * w:.1f} ms of it '
+                     f'waiting for a CPU)' for r, s, w in delays)
+    for received, sent, waited in delays:
+        assert received >= timeout and sent >= timeout, text
+        assert sent <= timeout + WATCHDOG_MARGIN + waited, text
 
 
 @pytest.mark.parametrize('executor', EXECUTORS)
@@ -218,13 +278,13 @@ def test_first_safe_command_within_the_promised_bound_then_repeated(bench_factor
     delays, repeats = [], []
     for _ in range(5):
         delays.append(bench.outage_delay())
-        # Repeated every feedback.safe_command_period while the outage lasts.
-        count = len(bench.commands)
-        spin_for(bench.executor, 10 * SAFE_PERIOD)
-        repeats.append([c[2] for c in bench.commands[count:]])
+        # Repeated every feedback.safe_command_period while the outage lasts: 10 in 10
+        # periods of the node clock that stamps them (a repeat due while the node waits for
+        # a CPU longer than a period is skipped, not sent twice).
+        repeats.append(bench.safe_stamps_after(bench.first_safe[1], 10 * SAFE_PERIOD))
     assert_within_promise(delays)
-    for during in repeats:
-        assert 8 <= len(during) <= 11 and all(c == SAFE_COMMAND for c in during), during
+    for stamps, waited in repeats:
+        assert 8 - int(waited / SAFE_PERIOD) <= len(stamps) <= 11, (stamps, waited)
     assert bench.feedback.counters['stale'] == 5
     # x_hat back: the commands resume at once and the repeats stop.
     count = len(bench.commands)
@@ -244,12 +304,9 @@ def test_run_time_timeout_and_repeat_period_take_effect(bench_factory):
     assert spin_until(bench.executor, future.done, 5.0)
     assert future.result().result.successful, future.result().result.reason
     delays = [bench.outage_delay() for _ in range(3)]
-    text = ', '.join(f'{1e3 * d:.1f} ms' for d in delays)
-    assert TIMEOUT / 2 - 0.005 <= statistics.median(delays) <= TIMEOUT / 2 + WATCHDOG_MARGIN, (
-        text)
-    count = len(bench.commands)
-    spin_for(bench.executor, 10 * SAFE_PERIOD)
-    assert 16 <= len(bench.commands) - count <= 21, len(bench.commands) - count
+    assert_within_promise(delays, TIMEOUT / 2)
+    stamps, waited = bench.safe_stamps_after(bench.first_safe[1], 10 * SAFE_PERIOD)
+    assert 16 - int(waited / (SAFE_PERIOD / 2)) <= len(stamps) <= 21, (stamps, waited)
 
 
 @pytest.mark.parametrize('executor', EXECUTORS)
@@ -375,7 +432,8 @@ class PlantBench:
         return self.node.create_subscription(JointState, topic, on_message, 100)
 
     def command(self, stamp_ns: int, values) -> None:
-        """Publish one u_cmd; remember when."""
+        """Publish one u_cmd; remember when (and cpu_wait_ns() then)."""
+        self.cpu_wait_at = cpu_wait_ns()
         self.last_command = time.monotonic()
         message = JointState(name=['u1'], position=[float(v) for v in values])
         ns_to_stamp(message.header.stamp, stamp_ns)
@@ -419,9 +477,31 @@ COMMAND = [0.7]
 SAFE_INPUT = [-0.3]
 COMMAND_TIMEOUT = 0.1
 PERIOD = 0.01
-#: The promise (README, plant simulator): the safe input from the first sample after
-#: plant.command_timeout, i.e. within the timeout plus one sample period plus this margin.
+#: The promise (doc/guarantees.md): the safe input from the first sample after
+#: plant.command_timeout, i.e. within the timeout plus one sample period plus this margin,
+#: plus the time the plant's process waited for a CPU meanwhile.
 PLANT_MARGIN = 0.010
+#: The real-time plant's warning at an outage: how long it had been without a command.
+PLANT_WARNING = r'^no u_cmd for ([0-9.]+) s \(plant\.command_timeout = 0\.5 s, steady clock'
+
+
+def record_decisions(plant) -> list:
+    """
+    Record the plant's choice at each sample as it makes it.
+
+    ``(steady ns, steady ns of the latest command's arrival, a command applied,
+    cpu_wait_ns())``.
+    """
+    decisions = []
+    decide = plant._command_in_effect
+
+    def recorded() -> tuple:
+        result = decide()
+        decisions.append((time.monotonic_ns(), plant.command_arrival_ns, result[1],
+                          cpu_wait_ns()))
+        return result
+    plant._command_in_effect = recorded
+    return decisions
 
 
 @pytest.mark.parametrize('executor', EXECUTORS)
@@ -430,13 +510,14 @@ def test_plant_applies_the_safe_input_after_the_command_timeout_and_resumes(plan
     bench = plant_factory(executor, plant__command_timeout=COMMAND_TIMEOUT,
                           plant__safe_input=SAFE_INPUT, topics__u_cmd__limit=10.0)
     bench.be_the_loop()
+    decisions = record_decisions(bench.plant)
     spin = bench.executor
     assert spin_until(spin, lambda: len(bench.samples['u']) >= 5, 10.0)
     # Before the first command: the safe input. A command beyond topics.u_cmd.limit: dropped.
     assert all(u[2] == SAFE_INPUT for u in bench.samples['u'])
     bench.command(0, [20.0])
     assert spin_until(spin, lambda: bench.plant.counters['out_of_range'] == 1, 5.0)
-    delays = []
+    delays, ages, waits = [], [], []
     for outage in range(3):
         bench.answer = COMMAND
         count = len(bench.samples['u'])
@@ -444,43 +525,49 @@ def test_plant_applies_the_safe_input_after_the_command_timeout_and_resumes(plan
         applied = [u[2] for u in bench.samples['u'][count:]]
         assert applied[-15:] == [COMMAND] * 15, applied  # resumed with the next command
         bench.answer = None
-        last = bench.last_command
-        count = len(bench.samples['u'])
+        last, cpu_wait = bench.last_command, bench.cpu_wait_at
+        count, decided = len(bench.samples['u']), len(decisions)
         assert spin_until(spin, lambda: any(
             u[2] == SAFE_INPUT for u in bench.samples['u'][count:]), 5.0), (
             'the plant kept applying the last command')
         first_safe = next(u for u in bench.samples['u'][count:] if u[2] == SAFE_INPUT)
         delays.append(first_safe[0] - last)
+        now, arrival, _, cpu_wait_then = next(d for d in decisions[decided:] if not d[2])
+        ages.append((now - arrival) / NANOSECONDS)
+        waits.append(max(0, cpu_wait_then - cpu_wait) / NANOSECONDS)
         assert bench.plant.counters['command_timeouts'] == outage + 1
-    text = ', '.join(f'{1e3 * d:.1f} ms' for d in delays)
-    assert statistics.median(delays) <= COMMAND_TIMEOUT + PERIOD + PLANT_MARGIN, text
-    assert min(delays) >= COMMAND_TIMEOUT, text
+    text = ', '.join(f'{1e3 * d:.1f} ms (decided after {1e3 * a:.1f} ms, {1e3 * w:.1f} ms of '
+                     f'it waiting for a CPU)' for d, a, w in zip(delays, ages, waits))
+    assert min(delays) >= COMMAND_TIMEOUT and min(ages) > COMMAND_TIMEOUT, text
+    assert all(age <= COMMAND_TIMEOUT + PERIOD + PLANT_MARGIN + waited
+               for age, waited in zip(ages, waits)), text
 
 
 def test_lockstep_plant_counts_the_command_timeout_in_simulated_time(plant_factory):
     # Commands for samples 0 ... 9, then none: every sample waits plant.lockstep_timeout and
-    # advances; the command of sample 9 arrived at t_9 and is used while t_k - t_9 <= 0.05 s
-    # (samples 10 ... 14), then the safe input; answering again from sample 20 resumes it.
-    bench = plant_factory('single', plant__lockstep=True, plant__samples=25,
-                          plant__lockstep_timeout=0.02, plant__command_timeout=0.05,
+    # advances; the command of sample 9 arrived at t_9 and is used while t_k - t_9 <= 0.02 s
+    # (samples 10 and 11), then the safe input; answering again from sample 14 resumes it.
+    # The wall-clock lockstep_timeout is long enough for an answer on a loaded machine.
+    bench = plant_factory('single', plant__lockstep=True, plant__samples=20,
+                          plant__lockstep_timeout=0.5, plant__command_timeout=0.02,
                           plant__safe_input=SAFE_INPUT)
     bench.be_the_loop()
     period_ns = bench.plant.period_ns
 
     def answer(message):
         index = stamp_of(message) // period_ns - 1
-        if index < 10 or index >= 20:
+        if index < 10 or index >= 14:
             bench.command(stamp_of(message), [0.01 * index])
     bench.node.create_subscription(JointState, 'y', answer, 100)
     assert spin_until(bench.executor, bench.plant.finished.done, 30.0)
     spin_for(bench.executor, 0.1)
     applied = {stamp // period_ns - 1: values[0] for _, stamp, values in bench.samples['u']}
-    assert sorted(applied) == list(range(25))
-    expected = ([SAFE_INPUT[0]] + [0.01 * k for k in range(9)] + [0.09] * 5
-                + [SAFE_INPUT[0]] * 6 + [0.01 * k for k in range(20, 24)])
-    np.testing.assert_allclose([applied[k] for k in range(25)], expected, rtol=0, atol=1e-15)
+    assert sorted(applied) == list(range(20))
+    expected = ([SAFE_INPUT[0]] + [0.01 * k for k in range(9)] + [0.09] * 2
+                + [SAFE_INPUT[0]] * 3 + [0.01 * k for k in range(14, 19)])
+    np.testing.assert_allclose([applied[k] for k in range(20)], expected, rtol=0, atol=1e-15)
     assert bench.plant.counters['command_timeouts'] == 1
-    assert bench.plant.counters['lockstep_timeouts'] == 10
+    assert bench.plant.counters['lockstep_timeouts'] == 4
 
 
 @pytest.mark.parametrize('executor', EXECUTORS)
@@ -515,8 +602,10 @@ def test_killed_feedback_process_leaves_the_plant_on_its_safe_input_until_restar
     # The three console-script processes in real time. The plant publishes nothing until the
     # observer and this test subscribe to y and state_feedback publishes u_cmd; when
     # state_feedback is killed it applies plant.safe_input after plant.command_timeout, and
-    # the restarted node's commands take over again.
-    path = str(SEED003)
+    # the restarted node's commands take over again. A stable plant: seed 003's, on the safe
+    # input alone, leaves topics.y.limit within seconds, before a restarted process is up on
+    # a loaded machine, and then no estimate comes to take it back.
+    path = str(CONFIG_DIR / 'seed001_fourth_order_chen.yaml')
     safe = '[0.123]'
     with ros_context() as context:
         listener = Node('listener', context=context)
@@ -532,24 +621,28 @@ def test_killed_feedback_process_leaves_the_plant_on_its_safe_input_until_restar
         processes = {'plant': NodeProcess('plant_simulator', *plant_args)}
         try:
             assert spin_until(executor, lambda: all(
-                s.get_publisher_count() > 0 for s in subscriptions.values()), 30.0)
+                s.get_publisher_count() > 0 for s in subscriptions.values()), PROCESS_START)
             spin_for(executor, 1.0)
             assert not samples['x_true'], 'the plant started without its peers'
             for name in ('observer', 'state_feedback'):
                 processes[name] = NodeProcess(name, '--ros-args', '--params-file', path)
             assert spin_until(executor, lambda: len(samples['u']) > 100 and all(
-                u != [0.123] for _, u in samples['u'][-20:]), 30.0), samples['u'][-5:]
+                u != [0.123] for _, u in samples['u'][-20:]), PROCESS_START), (
+                samples['u'][-5:])
+            running, plant = len(samples['u']), processes['plant'].process.pid
+            cpu_wait, killed_wall = cpu_wait_ns(plant), time.time()
             killed = time.monotonic()
             processes['state_feedback'].process.kill()
             processes['state_feedback'].stop()
             assert spin_until(executor, lambda: samples['u'][-1][1] == [0.123], 5.0)
-            first_safe = next(t for t, u in samples['u'] if t > killed and u == [0.123])
-            assert first_safe - killed <= 0.5 + PERIOD + 0.1  # plant.command_timeout: 0.5 s
-            before = [u for t, u in samples['u'] if killed < t < killed + 0.5 - 0.05]
-            assert before and [0.123] not in before
+            waited = max(0, cpu_wait_ns(plant) - cpu_wait) / NANOSECONDS
+            # The commands went on until the kill; when the safe input came the plant says
+            # (its steady clock; the test's receiving lags on a loaded machine).
+            assert [0.123] not in [u for t, u in samples['u'][running:] if t <= killed]
             processes['state_feedback'] = NodeProcess('state_feedback', '--ros-args',
                                                       '--params-file', path)
-            assert spin_until(executor, lambda: samples['u'][-1][1] != [0.123], 30.0)
+            assert spin_until(executor, lambda: samples['u'][-1][1] != [0.123],
+                              PROCESS_START)
         finally:
             outcomes = {name: process.stop() for name, process in processes.items()}
             executor.remove_node(listener)
@@ -557,5 +650,7 @@ def test_killed_feedback_process_leaves_the_plant_on_its_safe_input_until_restar
             executor.shutdown()
     for name, (code, _, err) in outcomes.items():
         assert code == 0, (name, err)
-    assert 'no u_cmd for plant.command_timeout = 0.5 s' in outcomes['plant'][2]
+    ages = [float(age) for age, in logged_since(outcomes['plant'][2], killed_wall,
+                                                PLANT_WARNING)]
+    assert ages and 0.5 < ages[0] <= 0.5 + PERIOD + PLANT_MARGIN + waited, (ages, waited)
     assert 'u_cmd is back' in outcomes['plant'][2]

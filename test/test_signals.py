@@ -35,7 +35,7 @@ from bag_support import write_robot_bag
 from conftest import CONFIG_DIR, console_script
 from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.ros.recorder import TopicRecorder
-from ros_support import executor_with, ros_context, spin_until
+from ros_support import executor_with, PROCESS_START, ros_context, spin_until
 
 CONFIG = str(CONFIG_DIR / 'seed003_full_order.yaml')
 
@@ -43,7 +43,7 @@ CONFIG = str(CONFIG_DIR / 'seed003_full_order.yaml')
 CRASH_MARKS = ('Traceback', 'terminate called', 'KeyboardInterrupt', 'Exception ignored')
 
 #: Seconds a process may take to come up, and to exit once signalled.
-START_TIMEOUT = 30.0
+START_TIMEOUT = PROCESS_START
 EXIT_TIMEOUT = 15.0
 
 #: Seconds between two signals of a storm.

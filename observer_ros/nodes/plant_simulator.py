@@ -160,14 +160,16 @@ class PlantSimulatorNode(ConfiguredNode):
         if self.command is None:
             return self.safe_input, False
         now = self.stamp_ns if self.lockstep else time.monotonic_ns()
-        if now - self.command_arrival_ns <= self.command_timeout_ns:
+        age = now - self.command_arrival_ns
+        if age <= self.command_timeout_ns:
             return self.command, True
         if not self.command_lost:
             self.command_lost = True
             self.counters['command_timeouts'] += 1
             self.get_logger().warning(
-                f'no u_cmd for plant.command_timeout = {self.command_timeout_ns / 1e9:g} s '
-                f'({"simulated" if self.lockstep else "steady clock"}): applying '
+                f'no u_cmd for {age / NANOSECONDS:.3f} s (plant.command_timeout = '
+                f'{self.command_timeout_ns / NANOSECONDS:g} s, '
+                f'{"simulated" if self.lockstep else "steady clock"}): applying '
                 f'plant.safe_input {self.safe_input.tolist()} until the next command')
         self.counters['safe_input_samples'] += 1
         return self.safe_input, False

@@ -227,17 +227,19 @@ class StateFeedbackWiring:
             self.watchdog.cancel()
             return
         timeout = self.system.feedback.timeout
-        if time.monotonic_ns() - self.last_estimate_ns < round(timeout * NANOSECONDS):
+        waited = time.monotonic_ns() - self.last_estimate_ns
+        if waited < round(timeout * NANOSECONDS):
             return  # an estimate re-armed the timer after this call was due
         self.watchdog.cancel()
         self.stale = True
         self.counters['stale'] += 1
+        self._publish_safe_command()  # first: the log write must not delay it
+        self.repeat_timer.reset()
         self.get_logger().warning(
-            f'no x_hat for feedback.timeout = {timeout} s: publishing the safe command '
+            f'no x_hat for {waited / NANOSECONDS:.3f} s (feedback.timeout = {timeout} s, '
+            f'steady clock): publishing the safe command '
             f'{self.system.feedback.safe_command.tolist()} every '
             f'feedback.safe_command_period = {self.system.feedback.safe_command_period} s')
-        self._publish_safe_command()
-        self.repeat_timer.reset()
 
     def _publish_safe_command(self) -> None:
         if not self.stale:
