@@ -18,13 +18,23 @@ Sampled full-order observer in current-estimator form.
 Per interval: ``x_prior = Ad x_hat + Bd u`` and ``x_hat = x_prior + M (y - C x_prior)``, so
 the error obeys ``e_new = (I - M C) Ad e``; ``M`` places ``eig((I - M C) Ad)`` at
 ``exp(lambda dt)`` (the pair ``(Ad, C Ad)``).
+
+With several measurement sources each subset of outputs gets its own ``M``, placed at the
+same poles for the pair ``(Ad, C_s Ad)`` of its rows of ``C`` (:meth:`FullOrderStep.for_outputs`),
+designed on first use and cached per interval; a subset that cannot see every mode of ``A``
+is refused, naming the modes.
 """
+
+import copy
+from typing import Optional
 
 import numpy as np
 
+from observer_ros.core.analysis import format_modes, pbh_lost_modes
 from observer_ros.core.design.common import ObserverDesign
-from observer_ros.core.errors import ConfigError
-from observer_ros.core.estimators.constant_gain import place_sampled, StepDesign, StepMatrices
+from observer_ros.core.errors import ConfigError, DesignError
+from observer_ros.core.estimators.constant_gain import (
+    outputs_model, place_sampled, StepDesign, StepMatrices)
 from observer_ros.core.observers.common import current_form
 
 
@@ -68,3 +78,31 @@ class FullOrderStep(StepDesign):
         else:
             gain = place_sampled(ad, c @ ad, poles, self.method).gain
         return current_form(ad, bd, c, gain, poles)
+
+    def several_sources_problem(self) -> Optional[str]:
+        """None, unless a given gain of a discrete model is used as it is (every output)."""
+        if self.filter_gain is not None:
+            return ('a given gain L of a discrete model is used as it is, for every output; '
+                    'give poles so that a gain is designed for each subset of outputs')
+        return None
+
+    def subset_problem(self, outputs: tuple) -> Optional[str]:
+        """Say why ``outputs`` alone cannot have a gain: the modes they cannot see."""
+        problem = self.several_sources_problem()
+        if problem is not None:
+            return problem
+        lost = pbh_lost_modes(self.model.a, self.model.c[list(outputs)])
+        if lost:
+            return (f'(A, C) of these outputs is not observable: the modes '
+                    f'{format_modes(lost)} cannot be seen from them, so no observer of '
+                    f'them alone can place its poles')
+        return None
+
+    def for_outputs(self, outputs: tuple) -> 'FullOrderStep':
+        """Return the step design of these outputs: the same poles placed with their rows."""
+        problem = self.subset_problem(outputs)
+        if problem is not None:
+            raise DesignError(problem)
+        subset = copy.copy(self)
+        subset.model = outputs_model(self.model, outputs)
+        return subset
