@@ -583,7 +583,11 @@ class EventEngine:
         """Save the consumer's state, keep ``entry`` last in the history and take its row."""
         entry.state = self.consumer.save()
         self.entries.append(entry)
-        produced = self.consumer.take(self._row(entry, u, interval, rerun))
+        try:
+            produced = self.consumer.take(self._row(entry, u, interval, rerun))
+        except Exception:  # noqa: B902 - whatever failed, the states kept may not follow on
+            self.clear_history()
+            raise
         entry.result = produced[-1] if produced else None
         if self.consumer.stamp_ns is None:  # the consumer restarted from its initial state
             self.entries.clear()
