@@ -24,6 +24,8 @@ refused at start-up, naming the source and the reason.
 
 from collections import Counter
 import math
+import pathlib
+import re
 
 from hypothesis import given, HealthCheck, settings, strategies as st
 import numpy as np
@@ -310,3 +312,34 @@ def test_replay_with_a_history_equals_the_live_stream():
     assert live.counters['reruns'] == batch.counters['reruns'] > 0
     with pytest.raises(ValueError, match='replay_events'):
         EventStream(estimator('kalman'), SECOND_NS, sources=TWO).replay([], [], [], [])
+
+
+def test_an_input_that_comes_after_its_rows_were_taken_runs_them_again():
+    # The node's input wait ran out (a flush): the rows took the latest earlier input. When
+    # the input comes, the rows it belongs to are taken again: as if it had been in time.
+    late = EventStream(estimator('time_varying'), SECOND_NS, sources=TWO, history_ns=SECOND_NS)
+    timely = EventStream(estimator('time_varying'), SECOND_NS, sources=TWO,
+                         history_ns=SECOND_NS)
+    for k in range(30):
+        stamp = SECOND_NS + k * 10 * MS
+        u = [math.sin(k)]
+        timely.add_input(stamp, u)
+        timely.add_measurement(stamp, [0.1 * k], source='twist')
+        if k in (10, 11, 12):  # their inputs come 30 ms late
+            late.add_measurement(stamp, [0.1 * k], source='twist')
+            late.flush()
+            continue
+        late.add_input(stamp, u)
+        if k in (13, 14, 15):
+            late.add_input(stamp - 30 * MS, [math.sin(k - 3)])
+        late.add_measurement(stamp, [0.1 * k], source='twist')
+    assert late.counters['late_input'] and late.counters['input_reruns'] == 3
+    assert fingerprint(late.history()) == fingerprint(timely.history())
+
+
+def test_the_python_example_of_the_doc_page_runs():
+    page = pathlib.Path(__file__).resolve().parents[1] / 'doc' / 'measurement_sources.md'
+    blocks = re.findall(r'```python\n(.*?)```', page.read_text(encoding='utf-8'), re.S)
+    assert blocks
+    for block in blocks:
+        exec(compile(block, str(page), 'exec'), {})  # noqa: S102 - the page's own example

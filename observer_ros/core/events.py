@@ -384,6 +384,8 @@ class EventEngine:
             # Not while a backward jump (a looping bag) is under way; with a history, keep
             # the inputs of its rows.
             self.inputs.prune(self._oldest_previous() if self.keeps_history else previous)
+        if self.keeps_history and previous is not None and stamp_ns < previous:
+            return self._rerun_for_input(stamp_ns) + self.process(force=False)
         return self.process(force=False)
 
     def add_measurement(self, stamp_ns: int, y, now_ns: Optional[int] = None,
@@ -551,6 +553,10 @@ class EventEngine:
             return None
         entries = self.entries
         index = bisect.bisect_left(entries, stamp, key=lambda entry: entry.stamp_ns)
+        if index == len(entries):  # no history to insert into (a failed step cleared it)
+            self.counters['out_of_order'] += 1
+            per['out_of_order'] += 1
+            return None
         if entries[index].stamp_ns == stamp and source in entries[index].parts:
             self.counters['duplicate'] += 1
             per['duplicate'] += 1
@@ -616,15 +622,33 @@ class EventEngine:
         stamp = event.stamp_ns
         index = bisect.bisect_left(entries, stamp, key=lambda entry: entry.stamp_ns)
         part = (event.values, event.arrival_ns)
-        state = entries[index].state
         newest = entries[-1].stamp_ns
-        again = entries[index:]
-        if again[0].stamp_ns == stamp:
-            again[0].parts[event.source] = part
+        if entries[index].stamp_ns == stamp:
+            entries[index].parts[event.source] = part
+            produced = self._run_again(index, None)
         else:
-            again.insert(0, HistoryEntry(stamp, {event.source: part}))
+            produced = self._run_again(index, HistoryEntry(stamp, {event.source: part}))
+        per = self.per_source[event.source]
+        per['used'] += 1
+        per['reruns'] += 1
+        self._max_lag[event.source] = max(self._max_lag[event.source], newest - stamp)
+        if stamp >= self._last_seen.get(event.source, (stamp, 0))[0]:
+            self._last_seen[event.source] = (stamp, event.arrival_ns)
+        return produced
+
+    def _run_again(self, index: int, first: Optional[HistoryEntry]) -> list:
+        """
+        Take the rows of the history from ``index`` on again, ``first`` (if any) before them.
+
+        The one re-run routine: the consumer returns to the state saved before the entry at
+        ``index``; each row is taken again with the input held at the previous stamp.
+        """
+        entries = self.entries
+        again = entries[index:]
+        if first is not None:
+            again.insert(0, first)
+        self.consumer.load(entries[index].state)
         del entries[index:]
-        self.consumer.load(state)
         previous = entries[-1].stamp_ns if entries else self._base_ns
         produced: list = []
         for entry in again:
@@ -634,16 +658,36 @@ class EventEngine:
                 u, interval = self.held_input(previous), entry.stamp_ns - previous
             produced = self._take_entry(entry, u, interval, True)
             previous = entry.stamp_ns
-        counters, per = self.counters, self.per_source[event.source]
+        counters = self.counters
         counters['reruns'] += 1
         counters['rerun_rows'] += len(again)
         counters['corrected'] += len(produced)
-        per['used'] += 1
-        per['reruns'] += 1
-        self._max_lag[event.source] = max(self._max_lag[event.source], newest - stamp)
-        if stamp >= self._last_seen.get(event.source, (stamp, 0))[0]:
-            self._last_seen[event.source] = (stamp, event.arrival_ns)
         return produced
+
+    def _rerun_for_input(self, stamp_ns: int) -> list:
+        """
+        Take the rows whose input a late input changes again (with a history).
+
+        A row's input is the one held at its previous stamp, so an input stamped
+        ``stamp_ns`` changes the rows whose previous stamp lies between it and the next
+        input: they are taken again from the first. Nothing to do in the usual case, an
+        input stamped at or after the newest measurement.
+        """
+        entries = self.entries
+        if not entries or stamp_ns >= entries[-1].stamp_ns:
+            return []
+        if self._base_ns is not None and self._base_ns >= stamp_ns:
+            first, previous = 0, self._base_ns
+        else:
+            index = bisect.bisect_left(entries, stamp_ns, key=lambda entry: entry.stamp_ns)
+            first = index + 1
+            if first >= len(entries):
+                return []
+            previous = entries[index].stamp_ns
+        if self.inputs.stamps[self.inputs.index_at(previous)] != stamp_ns:
+            return []  # a later input is held there: this one changes no row taken
+        self.counters['input_reruns'] += 1
+        return self._run_again(first, None)
 
     def _prune(self) -> None:
         """Forget the entries older than the history (the newest is always kept)."""

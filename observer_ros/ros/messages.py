@@ -87,7 +87,43 @@ def check_publishable_stamp(stamp_ns: int) -> int:
     return stamp_ns
 
 
-class VectorCodec:
+class WireDecoding:
+    """
+    What the decoders of a topic share: an array from the values, the general deserializer.
+
+    A subclass has ``topic``, ``message_class`` and ``decode_values(message)``.
+    """
+
+    topic: str
+    message_class: type
+
+    def decode(self, message) -> tuple[Optional[int], np.ndarray]:
+        """
+        Return ``(stamp_ns, vector)``; the stamp is None when the message carries none.
+
+        ``message`` is a message object or its serialized bytes. A zero stamp counts as
+        none.
+
+        Raises
+        ------
+        MalformedMessage
+            Undecodable or truncated bytes, wrong length, a missing joint or index, a
+            non-finite value, or a stamp that is no time (``nanosec >= 1e9``, negative
+            ``sec``).
+
+        """
+        stamp, values = self.decode_values(message)
+        return stamp, np.array(values, dtype=float)
+
+    def _deserialize(self, raw: bytes) -> object:
+        """Return the message object of bytes that are not little-endian plain CDR."""
+        try:
+            return deserialize_message(raw, self.message_class)
+        except Exception as e:  # the type support raises plain RuntimeError / others
+            raise MalformedMessage(f'{self.topic}: cannot deserialize ({e})') from None
+
+
+class VectorCodec(WireDecoding):
     """
     Convert between one topic's messages and ``(stamp_ns, vector)``.
 
@@ -174,23 +210,6 @@ class VectorCodec:
                 self._order_cache[key] = order
         return order
 
-    def decode(self, message) -> tuple[Optional[int], np.ndarray]:
-        """
-        Return ``(stamp_ns, vector)``; the stamp is None when the message carries none.
-
-        ``message`` is a message object or its serialized bytes. A JointState whose stamp is
-        zero counts as unstamped.
-
-        Raises
-        ------
-        MalformedMessage
-            Undecodable bytes, wrong length, missing joints, a non-finite value, or a stamp
-            that is no time (``nanosec >= 1e9``, negative ``sec``).
-
-        """
-        stamp, values = self.decode_values(message)
-        return stamp, np.array(values, dtype=float)
-
     def decode_values(self, message) -> tuple[Optional[int], list]:
         """Return what :meth:`decode` does, the values as a list of floats (no array)."""
         if isinstance(message, bytes):
@@ -229,12 +248,6 @@ class VectorCodec:
         if problem:
             raise MalformedMessage(f'{self.topic}: {problem}')
 
-    def _deserialize(self, raw: bytes) -> object:
-        try:
-            return deserialize_message(raw, self.message_class)
-        except Exception as e:  # the type support raises plain RuntimeError / others
-            raise MalformedMessage(f'{self.topic}: cannot deserialize ({e})') from None
-
 
 def message_class(msgtype: str):
     """Return the Python class of a message type (``sensor_msgs/msg/Imu``)."""
@@ -242,7 +255,7 @@ def message_class(msgtype: str):
     return getattr(importlib.import_module(f'{package}.msg'), name)
 
 
-class FieldCodec:
+class FieldCodec(WireDecoding):
     """
     Read (and, for fixed-layout types, write) chosen fields of one topic's messages.
 
@@ -281,24 +294,7 @@ class FieldCodec:
         self.stamped = self._reader.stamped
         self._read = self._reader.read_little_endian
         self._writer: Optional[FieldWriter] = None
-        self._class = None
-
-    def decode(self, message) -> tuple[Optional[int], np.ndarray]:
-        """
-        Return ``(stamp_ns, vector)``; the stamp is None when the message carries none.
-
-        ``message`` is a message object or its serialized bytes. A zero stamp counts as
-        none.
-
-        Raises
-        ------
-        MalformedMessage
-            Undecodable or truncated bytes, a missing joint or index, a non-finite value,
-            or a stamp that is no time.
-
-        """
-        stamp, values = self.decode_values(message)
-        return stamp, np.array(values, dtype=float)
+        self.message_class = message_class(self.msgtype)
 
     def decode_values(self, message) -> tuple[Optional[int], list]:
         """Return what :meth:`decode` does, the values as a list of floats (no array)."""
@@ -352,14 +348,6 @@ class FieldCodec:
             name, _, index = leaf[:-1].partition('[')
             return getattr(message, name)[int(index)]
         return getattr(message, leaf)
-
-    def _deserialize(self, raw: bytes) -> object:
-        if self._class is None:
-            self._class = message_class(self.msgtype)
-        try:
-            return deserialize_message(raw, self._class)
-        except Exception as e:  # the type support raises plain RuntimeError / others
-            raise MalformedMessage(f'{self.topic}: cannot deserialize ({e})') from None
 
     def encode(self, stamp_ns: int, vector) -> bytes:
         """

@@ -24,11 +24,13 @@ steady rate costs one matrix-vector product per update and jittered stamps stay 
 continuous model the poles are placed again for each new interval (:meth:`StepDesign.step`).
 """
 
+import copy
 from dataclasses import dataclass, field, replace
 from typing import Optional
 
 import numpy as np
 
+from observer_ros.core.analysis import format_modes, pbh_lost_modes
 from observer_ros.core.discretize import transition, zero_order_hold
 from observer_ros.core.errors import ConfigError, DesignError, StampError
 from observer_ros.core.estimators.intervals import (
@@ -189,13 +191,33 @@ class StepDesign:
         """
         Return the step design of an update with ``outputs`` alone (ascending indices).
 
+        A copy of this design for the model with those rows of ``C`` (a type with more
+        per-output data, a noise block, extends it).
+
         Raises
         ------
         DesignError
             What :meth:`subset_problem` says.
 
         """
-        raise DesignError(self.subset_problem(outputs))
+        problem = self.subset_problem(outputs)
+        if problem is not None:
+            raise DesignError(problem)
+        subset = copy.copy(self)
+        subset.model = outputs_model(self.model, outputs)
+        return subset
+
+    def unseen_modes(self, outputs: tuple, growing_only: bool = False) -> str:
+        """
+        Return the modes of ``A`` that ``outputs`` cannot see, as text (empty: none).
+
+        ``growing_only``: only those that do not decay (an undetectable subset).
+        """
+        model = self.model
+        lost = pbh_lost_modes(model.a, model.c[list(outputs)])
+        if growing_only:
+            lost = [mode for mode in lost if not decaying(mode, model.is_discrete)]
+        return format_modes(lost) if len(lost) else ''
 
 
 def outputs_model(model: StateSpaceModel, outputs: tuple) -> StateSpaceModel:
@@ -472,15 +494,7 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Su
         checking whole arrays at once.
         """
         if self._stamp is None:
-            prior = self._start
-            if self._start_pinned:
-                self._x = self.design.initial_estimate(prior, y)
-            else:
-                self._x = least_norm_consistent(self.design.model.c, prior, y)
-            self._innovation = y - self.design.model.c @ prior
-            self._result = None
-            self._stamp = stamp_ns
-            return self._x
+            return self._start_at(stamp_ns, y, self.design)
         dt_ns = stamp_ns - self._stamp
         if dt_ns <= 0:
             raise StampError(
@@ -501,6 +515,24 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Su
         self._innovation = result[n:]
         self._stamp = stamp_ns
         self._step = step
+        return self._x
+
+    def _start_at(self, stamp_ns: int, y: np.ndarray, design: StepDesign) -> np.ndarray:
+        """
+        Start the estimate at a first sample (of ``design``'s outputs).
+
+        Pinned: as the design makes it; unpinned: the point nearest the prior that gives
+        ``y`` (the prior itself when there is no output).
+        """
+        prior = self._start
+        c = design.model.c
+        if self._start_pinned or not len(c):
+            self._x = design.initial_estimate(prior, y)
+        else:
+            self._x = least_norm_consistent(c, prior, y)
+        self._innovation = y - c @ prior
+        self._result = None
+        self._stamp = stamp_ns
         return self._x
 
     def _known_part(self, step: StepMatrices, u: np.ndarray) -> np.ndarray:
@@ -549,16 +581,7 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Su
         design, cache = self._subset(outputs)
         self._prepared = None
         if self._stamp is None:
-            prior = self._start
-            c = design.model.c
-            if self._start_pinned or not outputs:
-                self._x = design.initial_estimate(prior, y)
-            else:
-                self._x = least_norm_consistent(c, prior, y)
-            self._innovation = y - c @ prior
-            self._result = None
-            self._stamp = stamp_ns
-            return self._x
+            return self._start_at(stamp_ns, y, design)
         dt_ns = stamp_ns - self._stamp
         if dt_ns <= 0:
             raise StampError(

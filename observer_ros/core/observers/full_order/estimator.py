@@ -20,21 +20,18 @@ the error obeys ``e_new = (I - M C) Ad e``; ``M`` places ``eig((I - M C) Ad)`` a
 ``exp(lambda dt)`` (the pair ``(Ad, C Ad)``).
 
 With several measurement sources each subset of outputs gets its own ``M``, placed at the
-same poles for the pair ``(Ad, C_s Ad)`` of its rows of ``C`` (:meth:`FullOrderStep.for_outputs`),
+same poles for the pair ``(Ad, C_s Ad)`` of its rows of ``C`` (``FullOrderStep.for_outputs``),
 designed on first use and cached per interval; a subset that cannot see every mode of ``A``
 is refused, naming the modes.
 """
 
-import copy
 from typing import Optional
 
 import numpy as np
 
-from observer_ros.core.analysis import format_modes, pbh_lost_modes
 from observer_ros.core.design.common import ObserverDesign
-from observer_ros.core.errors import ConfigError, DesignError
-from observer_ros.core.estimators.constant_gain import (
-    outputs_model, place_sampled, StepDesign, StepMatrices)
+from observer_ros.core.errors import ConfigError
+from observer_ros.core.estimators.constant_gain import place_sampled, StepDesign, StepMatrices
 from observer_ros.core.observers.common import current_form
 
 
@@ -91,18 +88,8 @@ class FullOrderStep(StepDesign):
         problem = self.several_sources_problem()
         if problem is not None:
             return problem
-        lost = pbh_lost_modes(self.model.a, self.model.c[list(outputs)])
-        if lost:
-            return (f'(A, C) of these outputs is not observable: the modes '
-                    f'{format_modes(lost)} cannot be seen from them, so no observer of '
-                    f'them alone can place its poles')
+        unseen = self.unseen_modes(outputs)
+        if unseen:
+            return (f'(A, C) of these outputs is not observable: the modes {unseen} cannot be '
+                    f'seen from them, so no observer of them alone can place its poles')
         return None
-
-    def for_outputs(self, outputs: tuple) -> 'FullOrderStep':
-        """Return the step design of these outputs: the same poles placed with their rows."""
-        problem = self.subset_problem(outputs)
-        if problem is not None:
-            raise DesignError(problem)
-        subset = copy.copy(self)
-        subset.model = outputs_model(self.model, outputs)
-        return subset

@@ -25,16 +25,12 @@ use and cached per interval. A subset that leaves a mode unseen and not decaying
 steady filter and is refused, naming the modes.
 """
 
-import copy
 from typing import Optional
 
 import numpy as np
 
-from observer_ros.core.analysis import format_modes, pbh_lost_modes
 from observer_ros.core.discretize import van_loan
-from observer_ros.core.errors import DesignError
-from observer_ros.core.estimators.constant_gain import (
-    decaying, outputs_model, StepDesign, StepMatrices)
+from observer_ros.core.estimators.constant_gain import StepDesign, StepMatrices
 from observer_ros.core.observers.common import current_form
 from observer_ros.core.observers.kalman.design import discrete_kalman, KalmanDesign
 
@@ -65,23 +61,17 @@ class KalmanStep(StepDesign):
 
     def subset_problem(self, outputs: tuple) -> Optional[str]:
         """Say why ``outputs`` alone have no steady filter: modes unseen and not decaying."""
-        model = self.model
-        lost = pbh_lost_modes(model.a, model.c[list(outputs)])
-        growing = [mode for mode in lost if not decaying(mode, model.is_discrete)]
-        if growing:
-            return (f'(A, C) of these outputs is not detectable: the modes '
-                    f'{format_modes(growing)} cannot be seen from them and do not decay, so '
-                    f'no steady-state Kalman filter of them alone exists')
+        unseen = self.unseen_modes(outputs, growing_only=True)
+        if unseen:
+            return (f'(A, C) of these outputs is not detectable: the modes {unseen} cannot be '
+                    f'seen from them and do not decay, so no steady-state Kalman filter of '
+                    f'them alone exists')
         return None
 
     def for_outputs(self, outputs: tuple) -> 'KalmanStep':
         """Return the step design of these outputs: their rows of ``C``, their block of ``R``."""
-        problem = self.subset_problem(outputs)
-        if problem is not None:
-            raise DesignError(problem)
+        subset = super().for_outputs(outputs)
         index = list(outputs)
-        subset = copy.copy(self)
-        subset.model = outputs_model(self.model, outputs)
         subset.measurement_noise = np.ascontiguousarray(
             self.measurement_noise[np.ix_(index, index)])
         return subset
