@@ -136,7 +136,7 @@ def run(smoke: bool, figures) -> Section:
         stream, total, _ = timed_feed(kind, events(seconds, sources),
                                       sources=source_set(sources), history_ns=history)
         updates = stream.counters['estimates'] + stream.counters['corrected']
-        rows.append([f'{sources} source{"s" if sources > 1 else ""} at 1 kHz each',
+        rows.append([f'{sources} at 1 kHz each' if sources > 1 else 'one at 1 kHz',
                      f'{history / SECOND:g} s', f'{updates / seconds:.0f} /s',
                      f'{total / updates * 1e6:.1f} us'])
     section.add(f'{kind}, n = 4, p = 4, {seconds:g} s of messages fed as they arrive; '
