@@ -36,7 +36,7 @@ from benchmarks.common import Figures, REPOSITORY
 
 #: Section number -> module.
 SECTIONS = {1: 'design', 2: 'update', 3: 'throughput', 4: 'ros_latency', 5: 'closed_loop',
-            6: 'noise', 7: 'scale'}
+            6: 'noise', 7: 'scale', 8: 'decoding', 9: 'sources'}
 
 
 def environment() -> str:

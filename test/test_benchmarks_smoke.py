@@ -28,7 +28,7 @@ def test_smoke_run_writes_every_section_and_figure(tmp_path):
     assert result.returncode == 0, result.stderr[-2000:]
     report = (tmp_path / 'BENCHMARKS.md').read_text(encoding='utf-8')
     headings = re.findall(r'^## (\d)\. ', report, flags=re.MULTILINE)
-    assert headings == [str(n) for n in range(1, 8)]
+    assert headings == [str(n) for n in range(1, 10)]
     assert '(smoke run)' in report
     figures = re.findall(r'!\[[^]]*\]\(([^)]+)\)', report)
     assert len(figures) == 6

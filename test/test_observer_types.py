@@ -63,7 +63,8 @@ def test_capabilities_of_the_built_in_types(name, covariance, every_output):
     assert capabilities.covariance is covariance
     assert capabilities.needs_every_output is every_output
     assert capabilities.linear_realization is True
-    assert capabilities.several_sources is False
+    # Several sources: the types that update with some of the outputs (a design per subset).
+    assert capabilities.several_sources is not every_output
 
 
 def test_an_unknown_type_lists_the_registered_ones():

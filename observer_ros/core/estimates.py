@@ -31,6 +31,12 @@ class EstimateSample:
     two when first read, if not given); None without them. ``estimate`` and ``innovation``
     are sequences of floats (arrays, or lists on the steady path).
 
+    With several measurement sources: ``outputs``, the ascending output indices the
+    innovation (and ``S``) is of (None: every output; empty: a prediction without
+    correction); ``corrected``, the estimate was computed again after a late measurement
+    (it is the newest estimate, at the newest stamp, which an earlier sample had already
+    given before the correction).
+
     Examples
     --------
     >>> EstimateSample(10, [1.0, 0.0], [0.5], innovation_covariance=[[0.25]]).nis
@@ -40,6 +46,10 @@ class EstimateSample:
 
     __slots__ = ('stamp_ns', 'estimate', 'innovation', 'covariance', 'innovation_covariance',
                  '_nis')
+
+    #: Every output, not corrected: a sample of one source (:class:`SourceSample` sets them).
+    outputs: Optional[tuple] = None
+    corrected: bool = False
 
     def __init__(self, stamp_ns: int, estimate, innovation, covariance=None,
                  innovation_covariance=None, nis: Optional[float] = None) -> None:
@@ -62,11 +72,38 @@ class EstimateSample:
         fields = {'stamp_ns': self.stamp_ns, 'estimate': self.estimate,
                   'innovation': self.innovation, 'covariance': self.covariance,
                   'innovation_covariance': self.innovation_covariance, 'nis': self._nis}
+        if type(self) is not EstimateSample or {'outputs', 'corrected'} & set(changes):
+            fields.update(outputs=self.outputs, corrected=self.corrected)
+            fields.update(changes)
+            return SourceSample(**fields)
         fields.update(changes)
         return EstimateSample(**fields)
 
     def __repr__(self) -> str:
         return f'EstimateSample(stamp_ns={self.stamp_ns}, estimate={list(self.estimate)})'
+
+
+class SourceSample(EstimateSample):
+    """
+    An :class:`EstimateSample` of several sources, or corrected after a late measurement.
+
+    Examples
+    --------
+    >>> sample = SourceSample(10, [1.0, 0.0], [0.5], outputs=(1,), corrected=True)
+    >>> sample.outputs, sample.corrected, EstimateSample(10, [1.0], [0.5]).corrected
+    ((1,), True, False)
+
+    """
+
+    __slots__ = ('outputs', 'corrected')
+
+    def __init__(self, stamp_ns: int, estimate, innovation, covariance=None,
+                 innovation_covariance=None, nis: Optional[float] = None,
+                 outputs: Optional[tuple] = None, corrected: bool = False) -> None:
+        super().__init__(stamp_ns, estimate, innovation, covariance, innovation_covariance,
+                         nis)
+        self.outputs = outputs
+        self.corrected = corrected
 
 
 @dataclass(frozen=True)

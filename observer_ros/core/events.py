@@ -35,26 +35,41 @@ every event it drops:
   input never leaks into the past; a measurement whose input may still be on its way waits
   until an input stamped at or after the previous measurement arrives, or a flush.
 
-Late measurements: today a measurement older than the last one processed is dropped and
-counted (``out_of_order``). A history that re-runs the estimates after it (issue 17) goes in
-exactly two places: :meth:`EventEngine._enqueue` inserts in stamp order, and the
-``out_of_order`` branch of :meth:`EventEngine._admit` hands the consumer a re-run from the
-state before the late stamp (:meth:`~observer_ros.core.estimators.Estimator.snapshot`)
-instead of dropping. Several measurement sources: each :class:`Source` names the outputs it
-carries; rows carry their source.
+Several measurement sources and late measurements (the history). Each
+:class:`~observer_ros.core.sources.MeasurementSource` names the outputs it carries; its
+samples are rows with those ``outputs`` (``None``: every output). With several sources, or a
+``history_ns`` above 0, the engine keeps a history (robot_localization's
+``smooth_lagged_data``): every measurement processed in the last ``history_ns`` with the
+consumer's state before it (:class:`HistoryEntry`), and the inputs it needs. Then the queue
+is in stamp order (:meth:`EventEngine._enqueue`), and a measurement older than the newest
+processed one (the ``out_of_order`` branch of :meth:`EventEngine._admit`) is no longer
+dropped: :meth:`EventEngine._rerun` inserts it in stamp order (or fuses it with the
+measurement of another source at the same stamp: one update with the outputs of both),
+returns the consumer to its state before it and runs the rows after it again with their
+inputs. What a re-run returns is what the newest row gives: the corrected newest estimate,
+at the newest stamp (a row with ``rerun`` set). A measurement older than the history is
+dropped and counted (``too_old``; ``out_of_order`` with a history of 0), as is one from a
+source whose sample at that stamp is already in the history (``duplicate``). A source's
+fixed latency moves its stamps back by it and takes the same path. With one source and no
+history the engine is what it was: no history is kept, a late measurement is dropped
+(``out_of_order``), and the queue is in arrival order.
 """
 
+import bisect
 from collections import Counter
-from typing import Any, NamedTuple, Optional
+from typing import Any, NamedTuple, Optional, Sequence
 
 import numpy as np
 
+from observer_ros.core.errors import ConfigError
 from observer_ros.core.rules import (
     ahead_of_clock, in_sequence, InputHistory, rows_within, ValueLimits, within_limit)
+from observer_ros.core.sources import check_sources, default_source, MeasurementSource
 
-__all__ = ['Event', 'EventEngine', 'INPUT', 'InputHistory', 'MEASUREMENT', 'PREDICTION', 'Row',
-           'RowCollector', 'Source', 'SteadyRows', 'ValueLimits', 'ahead_of_clock',
-           'in_sequence', 'rows_within', 'within_limit']
+__all__ = ['Event', 'EventEngine', 'HistoryEntry', 'INPUT', 'InputHistory', 'MEASUREMENT',
+           'MeasurementSource', 'PREDICTION', 'Row', 'RowCollector', 'Source', 'SourceStatus',
+           'SteadyRows', 'ValueLimits', 'ahead_of_clock', 'in_sequence', 'rows_within',
+           'within_limit']
 
 #: The one measurement source and the one input source of today's configurations.
 MEASUREMENT, INPUT = 'y', 'u'
@@ -62,12 +77,17 @@ MEASUREMENT, INPUT = 'y', 'u'
 #: Source of a queued prediction: an estimate waiting for the input after it (delayed form).
 PREDICTION = 'prediction'
 
+#: What :meth:`EventEngine._admit` says of a measurement to insert through the history.
+LATE = -1
+
 
 class Source(NamedTuple):
     """
     A source of events: its name, role, size and value limit.
 
-    ``outputs`` (measurement sources): the model outputs it carries, in its order.
+    ``outputs`` (measurement sources): the model outputs it carries, in its order;
+    ``sorted_outputs`` in ascending order, ``order`` the permutation that puts its values in
+    that order (None: they are), ``latency_ns`` its fixed latency.
     """
 
     name: str
@@ -76,6 +96,9 @@ class Source(NamedTuple):
     limit: float
     what: str
     outputs: tuple = ()
+    sorted_outputs: tuple = ()
+    order: Optional[list] = None
+    latency_ns: int = 0
 
 
 class Event(NamedTuple):
@@ -94,7 +117,10 @@ class Row(NamedTuple):
 
     ``interval_ns`` is the step from the previous row, 0 where the estimate starts (the
     first row, or after a gap or a backward jump). A ``PREDICTION`` row carries, in ``y``,
-    the estimate to predict over the next interval with ``u``.
+    the estimate to predict over the next interval with ``u``. ``outputs``: the ascending
+    output indices ``y`` holds (None: every output, in order); ``source`` names its
+    source(s), joined by ``+`` when the samples of several sources at one stamp are fused.
+    ``rerun``: the row is taken again after a late measurement (see :meth:`EventEngine._rerun`).
     """
 
     source: str
@@ -103,6 +129,53 @@ class Row(NamedTuple):
     u: np.ndarray
     interval_ns: int
     arrival_ns: int
+    outputs: Optional[tuple] = None
+    rerun: bool = False
+
+
+class HistoryEntry:
+    """
+    One processed stamp of the history: the samples taken there and what it gave.
+
+    Attributes
+    ----------
+    stamp_ns : int
+    parts : dict
+        ``{source name: (values in ascending output order, arrival_ns)}``.
+    state : object
+        The consumer's state before the row (``consumer.save()``), to re-run from.
+    result : object
+        What the consumer's ``take`` gave last for the row (its last item, or None).
+    """
+
+    __slots__ = ('stamp_ns', 'parts', 'state', 'result')
+
+    def __init__(self, stamp_ns: int, parts: dict) -> None:
+        self.stamp_ns = stamp_ns
+        self.parts = parts
+        self.state = None
+        self.result = None
+
+
+class SourceStatus(NamedTuple):
+    """
+    What the engine knows of one measurement source (for its health).
+
+    ``counts``: ``received``, ``used`` (taken in order or inserted), ``reruns`` (inserted
+    late), and the drops by reason (``malformed``, ``out_of_range``, ``future_stamp``,
+    ``duplicate``, ``too_old`` / ``out_of_order``); ``last_stamp_ns`` and
+    ``last_arrival_ns`` of its last sample taken (None before one); ``age_ns`` the clock
+    minus that stamp (None without a clock or a sample); ``stale`` when the age exceeds the
+    source's timeout; ``max_lag_ns`` how far behind the newest stamp its latest insertion
+    reached (the history depth it uses).
+    """
+
+    counts: Counter
+    last_stamp_ns: Optional[int]
+    last_arrival_ns: Optional[int]
+    age_ns: Optional[int]
+    stale: bool
+    max_lag_ns: int
 
 
 class RowCollector:
@@ -117,6 +190,14 @@ class RowCollector:
         self.stamp_ns = row.stamp_ns
         self.rows.append(row)
         return [row]
+
+    def save(self) -> Optional[int]:
+        """Return the state to re-run from: the last processed stamp."""
+        return self.stamp_ns
+
+    def load(self, state: Optional[int]) -> None:
+        """Return to a state of :meth:`save` (the rows taken are kept)."""
+        self.stamp_ns = state
 
 
 class SteadyRows(NamedTuple):
@@ -147,17 +228,35 @@ class EventEngine:
     limits : ValueLimits, optional
     consumer : optional
         Takes each row (``take(row) -> list``) and says the last stamp it processed
-        (``stamp_ns``: the previous measurement of the stamp and pairing rules). Default:
-        a :class:`RowCollector`.
+        (``stamp_ns``: the previous measurement of the stamp and pairing rules); with a
+        history also ``save() -> state`` and ``load(state)``, to re-run from a state.
+        Default: a :class:`RowCollector`.
+    sources : sequence of MeasurementSource, optional
+        The measurement sources (checked by
+        :func:`~observer_ros.core.sources.check_sources`). Default: one source ``y`` with
+        every output.
+    history_ns : int
+        How far back a late measurement is still inserted in stamp order (at most
+        ``max_gap_ns``). With several sources or a history above 0 the engine keeps one
+        (see the module notes); one source and 0 (the default): none, as before.
+    output_names : sequence of str, optional
+        Names of the outputs, for the messages about sources.
 
     Attributes
     ----------
     counters : collections.Counter
         ``measurements``, ``inputs``, ``duplicate``, ``out_of_order``, ``restart_gap``,
         ``restart_backward_jump``, ``no_input``, ``late_input``, and the dropped samples:
-        ``malformed`` (wrong size or not finite), ``out_of_range``, ``future_stamp``.
+        ``malformed`` (wrong size or not finite), ``out_of_range``, ``future_stamp``; with
+        a history ``too_old`` (dropped, older than the history), ``reruns`` (late
+        measurements inserted), ``rerun_rows`` (rows taken again) and ``corrected`` (what
+        the re-runs returned).
     events : list of (str, str)
         ``(kind, text)`` of notable events since the caller last cleared it.
+    keeps_history : bool
+        Whether the engine keeps a history (several sources, or ``history_ns`` above 0).
+    entries : list of HistoryEntry
+        The history, in stamp order (empty without one).
 
     Examples
     --------
@@ -176,13 +275,40 @@ class EventEngine:
 
     def __init__(self, n_outputs: int, n_inputs: int, max_gap_ns: int,
                  input_stamped: bool = True, clock_tolerance_ns: int = 0,
-                 limits: Optional[ValueLimits] = None, consumer=None) -> None:
+                 limits: Optional[ValueLimits] = None, consumer=None,
+                 sources: Optional[Sequence[MeasurementSource]] = None,
+                 history_ns: int = 0, output_names: Optional[Sequence[str]] = None) -> None:
         self.limits = limits or ValueLimits()
-        self.sources = {
-            MEASUREMENT: Source(MEASUREMENT, 'measurement', n_outputs, self.limits.measurement,
-                                'a measurement', tuple(range(n_outputs))),
-            INPUT: Source(INPUT, 'input', n_inputs, self.limits.input, 'an input')}
         self.max_gap_ns = int(max_gap_ns)
+        self.history_ns = int(history_ns)
+        if not 0 <= self.history_ns <= self.max_gap_ns:
+            raise ConfigError('history', f'expected 0 ... {self.max_gap_ns / 1e9:g} s (the gap '
+                              f'limit, beyond which the estimate starts again), got '
+                              f'{self.history_ns / 1e9:g} s')
+        given = sources is not None
+        measured = check_sources(sources if given else (default_source(n_outputs),),
+                                 n_outputs, self.history_ns, output_names)
+        self.n_outputs = n_outputs
+        self.sources = {}
+        for source in measured:
+            if source.name in (INPUT, PREDICTION):
+                raise ConfigError('sources', f'the name {source.name!r} is taken (inputs are '
+                                  f'{INPUT!r}); expected another source name')
+            order = sorted(range(len(source.outputs)), key=lambda k: source.outputs[k])
+            self.sources[source.name] = Source(
+                source.name, 'measurement', len(source.outputs), self.limits.measurement,
+                f'a measurement of {source.name!r}' if given else 'a measurement',
+                tuple(source.outputs), source.sorted_outputs,
+                None if order == list(range(len(order))) else order, int(source.latency_ns))
+        self.sources[INPUT] = Source(INPUT, 'input', n_inputs, self.limits.input, 'an input')
+        self.measurement_sources = measured
+        self.keeps_history = self.history_ns > 0 or len(measured) > 1
+        self.entries: list = []
+        self._base_ns: Optional[int] = None  # the last entry pruned: the first one's previous
+        self._floor_ns: Optional[int] = None  # a restart: nothing before it is inserted
+        self.per_source = {source.name: Counter() for source in measured}
+        self._last_seen: dict = {}
+        self._max_lag: Counter = Counter()
         self.input_stamped = input_stamped
         self.clock_tolerance_ns = int(clock_tolerance_ns)
         self.consumer = consumer if consumer is not None else RowCollector()
@@ -206,12 +332,19 @@ class EventEngine:
                 and not ahead_of_clock(stamp_ns, now_ns, tolerance)):
             return True  # the common case in one test; the reasons follow
         what = source.what
-        if vector.shape != (source.size,) or not rows_within(vector, source.limit)[0]:
+        per = self.per_source.get(source.name) if self.keeps_history else None
+        reason = ('malformed' if vector.shape != (source.size,)
+                  or not rows_within(vector, source.limit)[0]
+                  else 'out_of_range' if not within_limit(vector, source.limit)
+                  else 'future_stamp')
+        if per is not None:
+            per[reason] += 1
+        if reason == 'malformed':
             self.counters['malformed'] += 1
             self.events.append(('malformed', f'dropped {what} {vector.tolist()}: expected '
                                 f'{source.size} finite values'))
             return False
-        if not within_limit(vector, source.limit):
+        if reason == 'out_of_range':
             self.counters['out_of_range'] += 1
             self.events.append(('out_of_range', f'dropped {what} {vector.tolist()}: a value '
                                 f'exceeds the limit {source.limit:g} in magnitude'))
@@ -248,7 +381,11 @@ class EventEngine:
         self.inputs_absent = self.autonomous
         previous = self.consumer.stamp_ns
         if previous is None or stamp_ns >= previous - self.max_gap_ns:
-            self.inputs.prune(previous)  # not while a backward jump (a looping bag) is under way
+            # Not while a backward jump (a looping bag) is under way; with a history, keep
+            # the inputs of its rows.
+            self.inputs.prune(self._oldest_previous() if self.keeps_history else previous)
+        if self.keeps_history and previous is not None and stamp_ns < previous:
+            return self._rerun_for_input(stamp_ns) + self.process(force=False)
         return self.process(force=False)
 
     def add_measurement(self, stamp_ns: int, y, now_ns: Optional[int] = None,
@@ -263,6 +400,9 @@ class EventEngine:
         self.counters['measurements'] += 1
         stamp_ns = int(stamp_ns)
         vector = np.asarray(y, dtype=float).reshape(-1)  # copied below if it has to wait
+        if self.keeps_history:
+            return self._add_to_history(spec, stamp_ns - spec.latency_ns, vector, now_ns,
+                                        int(arrival_ns))
         if not self.accept(spec, stamp_ns, vector, now_ns):
             return []
         if not self.queue:  # the common case: the queue's routine for a queue of one
@@ -276,14 +416,29 @@ class EventEngine:
         self._enqueue(source, stamp_ns, vector.copy(), int(arrival_ns))
         return self.process(force=False)
 
+    def _add_to_history(self, spec: Source, stamp_ns: int, vector: np.ndarray,
+                        now_ns: Optional[int], arrival_ns: int) -> list:
+        """:meth:`add_measurement` with a history: the values in ascending output order."""
+        self.per_source[spec.name]['received'] += 1
+        if not self.accept(spec, stamp_ns, vector, now_ns):
+            return []
+        values = vector[spec.order] if spec.order is not None else vector.copy()
+        self._enqueue(spec.name, stamp_ns, values, arrival_ns)
+        return self.process(force=False)
+
     def _enqueue(self, source: str, stamp_ns: int, values, arrival_ns: int) -> None:
         """
-        Queue an event: the ordering rule (arrival order; the stamp rules come after).
+        Queue an event: the ordering rule (the stamp rules come after).
 
-        A history of late measurements inserts in stamp order here instead.
+        Arrival order; with a history, stamp order (then arrival order), so that what
+        waits for its input is taken oldest first and a late sample goes ahead of it.
         """
         self._sequence += 1
-        self.queue.append(Event(source, stamp_ns, values, self._sequence, arrival_ns))
+        event = Event(source, stamp_ns, values, self._sequence, arrival_ns)
+        if self.keeps_history:
+            bisect.insort(self.queue, event, key=lambda e: (e.stamp_ns, e.sequence))
+        else:
+            self.queue.append(event)
 
     def await_input(self, stamp_ns: int, estimate, arrival_ns: int) -> None:
         """Queue, first, an estimate waiting for the input after ``stamp_ns`` (delayed form)."""
@@ -333,25 +488,35 @@ class EventEngine:
                         break
                 else:
                     u = self.zero_input
-                interval = self._admit(event.stamp_ns, previous)
+                interval = self._admit(event, previous)
             force = force and not first_only
             queue.pop(0)
-            if interval is not None:
+            if interval is None:
+                continue
+            if self.keeps_history:
+                produced += (self._rerun(event) if interval == LATE
+                             else self._take_new(event, u, interval))
+            else:
                 produced += self.consumer.take(Row(event.source, event.stamp_ns, event.values,
                                                    u, interval, event.arrival_ns))
         return produced
 
-    def _admit(self, stamp: int, previous: Optional[int]) -> Optional[int]:
+    def _admit(self, event: Event, previous: Optional[int]) -> Optional[int]:
         """
         Apply the stamp rules to a measurement: its interval, 0 to start here, None: dropped.
 
-        The ``out_of_order`` branch is where a history would re-run instead of dropping.
+        Without a history a repeated stamp is a ``duplicate`` and a small step back is
+        ``out_of_order``; with one, a measurement inside the history is :data:`LATE` (to
+        insert, :meth:`_rerun`) unless its source's sample at that stamp is there already.
         """
         if previous is None:
             return 0
+        stamp = event.stamp_ns
         step = stamp - previous
         if in_sequence(step, self.max_gap_ns):
             return step
+        if self.keeps_history and -self.max_gap_ns <= step <= 0:
+            return self._admit_late(event, previous)
         if step == 0:
             self.counters['duplicate'] += 1
             self.events.append(('duplicate', f'dropped a measurement with a repeated '
@@ -366,9 +531,220 @@ class EventEngine:
         self.counters[kind] += 1
         if step < 0:  # inputs of the abandoned timeline must not pair with the new one
             self.inputs.drop_after(stamp)
+        if self.keeps_history:  # nothing before the restart is re-run
+            self.entries.clear()
+            self._base_ns, self._floor_ns = None, stamp
         self.events.append((kind, f'time jumped by {step / 1e9:.3f} s; the estimator '
                             f'restarts from this sample'))
         return 0
+
+    def _admit_late(self, event: Event, previous: int) -> Optional[int]:
+        """Apply the stamp rules to a measurement at or before the newest, with a history."""
+        stamp, source = event.stamp_ns, event.source
+        floor = self._floor_ns
+        per = self.per_source[source]
+        if stamp < previous - self.history_ns or (floor is not None and stamp < floor):
+            kind = 'too_old' if self.history_ns else 'out_of_order'
+            self.counters[kind] += 1
+            per[kind] += 1
+            self.events.append((kind, f'dropped a measurement of {source!r} stamped '
+                                f'{(previous - stamp) / 1e9:.6g} s before the newest one, '
+                                f'older than the history ({self.history_ns / 1e9:g} s)'))
+            return None
+        entries = self.entries
+        index = bisect.bisect_left(entries, stamp, key=lambda entry: entry.stamp_ns)
+        if index == len(entries):  # no history to insert into (a failed step cleared it)
+            self.counters['out_of_order'] += 1
+            per['out_of_order'] += 1
+            return None
+        if entries[index].stamp_ns == stamp and source in entries[index].parts:
+            self.counters['duplicate'] += 1
+            per['duplicate'] += 1
+            self.events.append(('duplicate', f'dropped a measurement of {source!r} with a '
+                                f'repeated stamp ({stamp} ns)'))
+            return None
+        return LATE
+
+    # --- the history -----------------------------------------------------------------------
+
+    def _row(self, entry: HistoryEntry, u: np.ndarray, interval: int, rerun: bool) -> Row:
+        """Return the row of a history entry: its samples fused in ascending output order."""
+        parts = entry.parts
+        if len(parts) == 1:
+            ((name, (values, arrival)),) = parts.items()
+            outputs = self.sources[name].sorted_outputs
+        else:
+            names = sorted(parts, key=lambda key: self.sources[key].sorted_outputs[0])
+            pairs = sorted((index, value) for key in names for index, value in
+                           zip(self.sources[key].sorted_outputs, parts[key][0].tolist()))
+            outputs = tuple(index for index, _ in pairs)
+            values = np.array([value for _, value in pairs])
+            name = '+'.join(names)
+            arrival = max(part[1] for part in parts.values())
+        return Row(name, entry.stamp_ns, values, u, interval, arrival,
+                   None if len(outputs) == self.n_outputs else outputs, rerun)
+
+    def _take_entry(self, entry: HistoryEntry, u: np.ndarray, interval: int,
+                    rerun: bool) -> list:
+        """Save the consumer's state, keep ``entry`` last in the history and take its row."""
+        entry.state = self.consumer.save()
+        self.entries.append(entry)
+        try:
+            produced = self.consumer.take(self._row(entry, u, interval, rerun))
+        except Exception:  # noqa: B902 - whatever failed, the states kept may not follow on
+            self.clear_history()
+            raise
+        entry.result = produced[-1] if produced else None
+        if self.consumer.stamp_ns is None:  # the consumer restarted from its initial state
+            self.entries.clear()
+            self._base_ns = self._floor_ns = None
+        return produced
+
+    def _take_new(self, event: Event, u: np.ndarray, interval: int) -> list:
+        """Take a measurement that follows on (or starts): a new newest entry."""
+        entry = HistoryEntry(event.stamp_ns, {event.source: (event.values, event.arrival_ns)})
+        self.per_source[event.source]['used'] += 1
+        self._last_seen[event.source] = (event.stamp_ns, event.arrival_ns)
+        produced = self._take_entry(entry, u, interval, False)
+        self._prune()
+        return produced
+
+    def _rerun(self, event: Event) -> list:
+        """
+        Insert a late measurement in stamp order and take the rows from it on again.
+
+        The consumer returns to its state before the late stamp (or before the measurement
+        of another source at that stamp, which the late one joins: one update with the
+        outputs of both); each row after it is taken again with the input held at the
+        previous stamp. Returns what the newest row gives (the corrected newest estimate).
+        """
+        entries = self.entries
+        stamp = event.stamp_ns
+        index = bisect.bisect_left(entries, stamp, key=lambda entry: entry.stamp_ns)
+        part = (event.values, event.arrival_ns)
+        newest = entries[-1].stamp_ns
+        if entries[index].stamp_ns == stamp:
+            entries[index].parts[event.source] = part
+            produced = self._run_again(index, None)
+        else:
+            produced = self._run_again(index, HistoryEntry(stamp, {event.source: part}))
+        per = self.per_source[event.source]
+        per['used'] += 1
+        per['reruns'] += 1
+        self._max_lag[event.source] = max(self._max_lag[event.source], newest - stamp)
+        if stamp >= self._last_seen.get(event.source, (stamp, 0))[0]:
+            self._last_seen[event.source] = (stamp, event.arrival_ns)
+        return produced
+
+    def _run_again(self, index: int, first: Optional[HistoryEntry]) -> list:
+        """
+        Take the rows of the history from ``index`` on again, ``first`` (if any) before them.
+
+        The one re-run routine: the consumer returns to the state saved before the entry at
+        ``index``; each row is taken again with the input held at the previous stamp.
+        """
+        entries = self.entries
+        again = entries[index:]
+        if first is not None:
+            again.insert(0, first)
+        self.consumer.load(entries[index].state)
+        del entries[index:]
+        previous = entries[-1].stamp_ns if entries else self._base_ns
+        produced: list = []
+        for entry in again:
+            if previous is None or not self.entries and self.consumer.stamp_ns is None:
+                u, interval = self.zero_input, 0
+            else:
+                u, interval = self.held_input(previous), entry.stamp_ns - previous
+            produced = self._take_entry(entry, u, interval, True)
+            previous = entry.stamp_ns
+        counters = self.counters
+        counters['reruns'] += 1
+        counters['rerun_rows'] += len(again)
+        counters['corrected'] += len(produced)
+        return produced
+
+    def _rerun_for_input(self, stamp_ns: int) -> list:
+        """
+        Take the rows whose input a late input changes again (with a history).
+
+        A row's input is the one held at its previous stamp, so an input stamped
+        ``stamp_ns`` changes the rows whose previous stamp lies between it and the next
+        input: they are taken again from the first. Nothing to do in the usual case, an
+        input stamped at or after the newest measurement.
+        """
+        entries = self.entries
+        if not entries or stamp_ns >= entries[-1].stamp_ns:
+            return []
+        if self._base_ns is not None and self._base_ns >= stamp_ns:
+            first, previous = 0, self._base_ns
+        else:
+            index = bisect.bisect_left(entries, stamp_ns, key=lambda entry: entry.stamp_ns)
+            first = index + 1
+            if first >= len(entries):
+                return []
+            previous = entries[index].stamp_ns
+        if self.inputs.stamps[self.inputs.index_at(previous)] != stamp_ns:
+            return []  # a later input is held there: this one changes no row taken
+        self.counters['input_reruns'] += 1
+        return self._run_again(first, None)
+
+    def _prune(self) -> None:
+        """Forget the entries older than the history (the newest is always kept)."""
+        entries = self.entries
+        horizon = entries[-1].stamp_ns - self.history_ns if entries else 0
+        drop = 0
+        while drop < len(entries) - 1 and entries[drop].stamp_ns < horizon:
+            drop += 1
+        if drop:
+            self._base_ns = entries[drop - 1].stamp_ns
+            del entries[:drop]
+
+    def _oldest_previous(self) -> Optional[int]:
+        """Return the earliest stamp whose held input a re-run may need (the pruning point)."""
+        if self._base_ns is not None:
+            return self._base_ns
+        return self.entries[0].stamp_ns if self.entries else self.consumer.stamp_ns
+
+    def clear_history(self) -> None:
+        """Forget the history (the consumer starts again: :meth:`EventStream.reset`)."""
+        self.entries.clear()
+        self._base_ns = self._floor_ns = None
+
+    def history_depth(self) -> tuple:
+        """Return ``(entries, span_ns)``: the history in use, and the stamps it spans."""
+        entries = self.entries
+        if not entries:
+            return 0, 0
+        return len(entries), entries[-1].stamp_ns - entries[0].stamp_ns
+
+    def source_report(self, now_ns: Optional[int] = None) -> dict:
+        """
+        Return ``{source name: SourceStatus}``: counts, last sample, age and staleness.
+
+        ``now_ns``: the receiver's clock, for the age and the timeout (None: no age).
+        Without a history (one source, history 0) the one source's counts are the
+        engine's own.
+        """
+        report = {}
+        for source in self.measurement_sources:
+            if self.keeps_history:
+                counts = Counter(self.per_source[source.name])
+                last = self._last_seen.get(source.name)
+            else:
+                counters = self.counters
+                counts = Counter({key: counters[key] for key in (
+                    'malformed', 'out_of_range', 'future_stamp', 'duplicate', 'out_of_order')})
+                counts['received'] = counters['measurements']
+                stamp = self.consumer.stamp_ns
+                last = None if stamp is None else (stamp, 0)
+            age = None if last is None or not now_ns else now_ns - last[0]
+            stale = bool(source.timeout_ns and (last is None or age is not None
+                                                and age > source.timeout_ns))
+            report[source.name] = SourceStatus(
+                +counts, None if last is None else last[0], None if last is None else last[1],
+                age, stale, int(self._max_lag[source.name]))
+        return report
 
     # --- the pairing rule ----------------------------------------------------------------
 

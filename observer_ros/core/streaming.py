@@ -29,25 +29,57 @@ estimator from the new sample; a sample stamped further ahead of the receiver's 
 ``clock_tolerance_ns`` is dropped. Values that are not finite or exceed the limits are
 dropped and counted.
 
+Several measurement sources at their own rates, and late measurements: given
+``sources`` (:class:`~observer_ros.core.sources.MeasurementSource`) and a ``history_ns``, the
+engine keeps a history and the stream updates the estimator with the outputs that arrived
+(:class:`~observer_ros.core.estimators.SubsetUpdates`, asked by capability; an estimator
+without it takes one source only). A measurement older than the newest one but inside the
+history is inserted in stamp order and the estimates after it computed again; what it
+returns is the corrected newest estimate, at the newest stamp, marked ``corrected``
+(:class:`~observer_ros.core.estimates.SourceSample`). Samples of two sources with one stamp
+make one update with the outputs of both. See :mod:`observer_ros.core.events`.
+
 When the estimator offers :class:`~observer_ros.core.estimators.SteadySteps`, the stream
 takes those fast paths where they apply (a prepared steady one-output step, a batch over a
 recording whose stamps all follow on): a private optimisation, equal bit for bit to the
-general path (``fast_paths=False`` turns it off; the tests hold the two equal).
+general path (``fast_paths=False`` turns it off; the tests hold the two equal). They are
+off while the stream keeps a history.
 """
 
 from collections import Counter
 import math
-from typing import Optional
+from typing import NamedTuple, Optional, Sequence
 
 import numpy as np
 
-from observer_ros.core.estimates import EstimateSample, replay_arrays, ReplayArrays
-from observer_ros.core.estimators import Estimator, Prediction, SteadySteps
+from observer_ros.core.errors import ConfigError
+from observer_ros.core.estimates import (
+    EstimateSample, replay_arrays, ReplayArrays, SourceSample)
+from observer_ros.core.estimators import Estimator, Prediction, SteadySteps, SubsetUpdates
 from observer_ros.core.events import EventEngine, INPUT, MEASUREMENT, PREDICTION
 from observer_ros.core.rules import (
     ahead_of_clock, in_sequence, rows_within, ValueLimits, within_limit)
+from observer_ros.core.sources import check_subsets, MeasurementSource
 
-__all__ = ['EstimateSample', 'EventStream', 'ReplayArrays', 'ValueLimits', 'replay_arrays']
+__all__ = ['EstimateSample', 'EventStream', 'RecordedEvent', 'ReplayArrays', 'SourceSample',
+           'ValueLimits', 'replay_arrays']
+
+#: The values of an update with no output (a predict-only source).
+NO_VALUES = np.zeros(0)
+
+
+class RecordedEvent(NamedTuple):
+    """
+    One recorded message, for :meth:`EventStream.replay_events`.
+
+    ``source`` is ``'u'`` for an input or a measurement source's name; ``arrival_ns`` its
+    arrival (log) time, the receiver's clock of the clock rule (0: no clock check).
+    """
+
+    source: str
+    stamp_ns: int
+    values: object
+    arrival_ns: int = 0
 
 
 class EventStream:
@@ -74,6 +106,16 @@ class EventStream:
     fast_paths : bool
         Take the estimator's :class:`~observer_ros.core.estimators.SteadySteps` where they
         apply (the same numbers and counts; False: the general path only).
+    sources : sequence of MeasurementSource, optional
+        The measurement sources (default: one, ``y``, with every output). Several need an
+        estimator with :class:`~observer_ros.core.estimators.SubsetUpdates`; each source
+        alone is checked at once (:func:`~observer_ros.core.sources.check_subsets`).
+    history_ns : int
+        How far back (ns) a late measurement is inserted in stamp order and the estimates
+        after it computed again; older ones are dropped (``too_old``). With several
+        sources or a history the form must be ``current``.
+    output_names : sequence of str, optional
+        Names of the outputs, for the messages about sources (``y1``... otherwise).
 
     Attributes
     ----------
@@ -83,7 +125,9 @@ class EventStream:
         The engine's (``measurements``, ``duplicate``, ``out_of_order``, ``restart_gap``,
         ``restart_backward_jump``, ``no_input``, ``late_input``, ``inputs``, ``malformed``,
         ``out_of_range``, ``future_stamp``) and ``estimates``; ``estimate_reset`` counts
-        estimates beyond their limit (not returned; the estimator restarted).
+        estimates beyond their limit (not returned; the estimator restarted); with a history
+        the engine's ``reruns``, ``rerun_rows``, ``too_old`` and ``corrected`` (the
+        corrected estimates returned, besides ``estimates``).
     events : list of (str, str)
         ``(kind, text)`` of notable events since the caller last cleared it.
 
@@ -106,7 +150,9 @@ class EventStream:
 
     def __init__(self, estimator: Estimator, max_gap_ns: int, input_stamped: bool = True,
                  clock_tolerance_ns: int = 0, limits: Optional[ValueLimits] = None,
-                 form: str = 'current', fast_paths: bool = True) -> None:
+                 form: str = 'current', fast_paths: bool = True,
+                 sources: Optional[Sequence[MeasurementSource]] = None,
+                 history_ns: int = 0, output_names: Optional[Sequence[str]] = None) -> None:
         if form not in ('current', 'delayed'):
             raise ValueError(f"form: expected 'current' or 'delayed', got {form!r}")
         self.estimator = estimator
@@ -114,11 +160,49 @@ class EventStream:
         self.form = form
         self.engine = EventEngine(estimator.n_outputs, estimator.n_inputs, max_gap_ns,
                                   input_stamped, clock_tolerance_ns, self.limits,
-                                  consumer=self)
-        self._fast = fast_paths and isinstance(estimator, SteadySteps)
+                                  consumer=self, sources=sources, history_ns=history_ns,
+                                  output_names=output_names)
+        self._updates: dict = {}  # outputs of a row -> outputs to update with
+        self._owners: dict = {}  # output index -> its source
+        if self.engine.keeps_history:
+            self._check_sources(self.engine.measurement_sources, output_names)
+        self._fast = (fast_paths and isinstance(estimator, SteadySteps)
+                      and not self.engine.keeps_history)
         self._result_limit = min(self.limits.estimate, self.limits.innovation)
         self._steady = 0  # steady measurements not yet added to the counters
         self._steady_key: Optional[tuple] = None
+
+    def _check_sources(self, sources: tuple, output_names: Optional[Sequence[str]]) -> None:
+        """Refuse what the estimator cannot do with these sources (at start-up)."""
+        if self.form != 'current':
+            raise ConfigError('form', 'the delayed form takes one measurement source without '
+                              'a history; expected current with several sources or a history')
+        partial = len(sources) > 1
+        if partial:
+            estimator = self.estimator
+            problem = (estimator.several_sources_problem()
+                       if isinstance(estimator, SubsetUpdates) else
+                       f'this estimator ({type(estimator).__name__}) updates with every output '
+                       f'at once')
+            if problem is not None:
+                raise ConfigError('sources', f'{problem}; got {len(sources)} sources '
+                                  f'{[source.name for source in sources]}')
+            self._updates = check_subsets(self.estimator, sources, output_names)
+        self._owners = {index: source for source in sources for index in source.outputs}
+
+    def _update_outputs(self, outputs: tuple) -> tuple:
+        """Return the outputs to update with when ``outputs`` came: them, or none (predict)."""
+        problem = self.estimator.subset_problem(outputs)
+        owners = {self._owners[index] for index in outputs}
+        if problem is None:
+            update = outputs
+        elif all(source.predict_only for source in owners):
+            update = ()
+        else:  # check_subsets refused this at start-up; say so if it comes anyway
+            names = sorted(source.name for source in owners)
+            raise ConfigError('sources', f'sources {names} together: {problem}')
+        self._updates[outputs] = update
+        return update
 
     # --- what the engine and the callers read --------------------------------------------
 
@@ -180,9 +264,31 @@ class EventStream:
         return self.engine.waiting()
 
     def reset(self) -> None:
-        """Restart the estimator from its initial state; inputs are kept."""
+        """Restart the estimator from its initial state; inputs are kept, the history not."""
         self.estimator.reset()
         self.engine.queue.clear()
+        self.engine.clear_history()
+
+    def source_report(self, now_ns: Optional[int] = None) -> dict:
+        """``{source name: SourceStatus}`` (see :meth:`EventEngine.source_report`)."""
+        return self.engine.source_report(now_ns)
+
+    def history(self) -> list:
+        """
+        Return the estimates of the history, oldest first, as computed with every sample so far.
+
+        One per stamp of the history (the last one is the newest estimate); empty without a
+        history. Rows whose estimate was not returned (beyond a limit) are left out.
+        """
+        return [entry.result for entry in self.engine.entries if entry.result is not None]
+
+    def save(self) -> tuple:
+        """Return the estimator's running state, to re-run from (the engine's history)."""
+        return self.estimator.snapshot()
+
+    def load(self, state: tuple) -> None:
+        """Return the estimator to a state of :meth:`save`."""
+        self.estimator.restore(state)
 
     # --- events ----------------------------------------------------------------------------
 
@@ -242,15 +348,31 @@ class EventStream:
         estimator = self.estimator
         if row.interval_ns == 0 and estimator.stamp_ns is not None:
             estimator.restart()  # a gap or a backward jump: start from the estimate held
-        estimate = estimator.advance(row.stamp_ns, row.y, row.u)  # checked on arrival
+        outputs = row.outputs
+        if outputs is None:
+            estimate = estimator.advance(row.stamp_ns, row.y, row.u)  # checked on arrival
+        else:
+            update = self._updates.get(outputs)
+            if update is None:
+                update = self._update_outputs(outputs)
+            estimate = estimator.advance_outputs(row.stamp_ns, row.y if update else NO_VALUES,
+                                                 row.u, update)
         innovation = estimator.innovation
         if not self._publishable(estimate, innovation,
                                  estimator.result if self._fast else None):
             return []
-        self.engine.counters['estimates'] += 1
         covariance = estimator.innovation_covariance
-        sample = EstimateSample(row.stamp_ns, estimate, innovation, estimator.covariance,
-                                covariance, None if covariance is None else estimator.nis)
+        nis = None if covariance is None else estimator.nis
+        if outputs is None and not row.rerun:
+            self.engine.counters['estimates'] += 1
+            sample = EstimateSample(row.stamp_ns, estimate, innovation, estimator.covariance,
+                                    covariance, nis)
+        else:
+            if not row.rerun:
+                self.engine.counters['estimates'] += 1
+            sample = SourceSample(row.stamp_ns, estimate.copy(), innovation,
+                                  estimator.covariance, covariance, nis,
+                                  None if outputs is None else update, row.rerun)
         if self.form == 'current':
             return [sample]
         self.engine.await_input(row.stamp_ns, sample, row.arrival_ns)
@@ -385,6 +507,9 @@ class EventStream:
         """
         estimator, engine = self.estimator, self.engine
         n_outputs, n_inputs = estimator.n_outputs, estimator.n_inputs
+        if engine.keeps_history:
+            return self._replay_history(input_stamps, inputs, stamps, outputs, input_arrivals,
+                                        arrivals)
         outputs = np.ascontiguousarray(outputs, dtype=float).reshape(-1, n_outputs)
         stamps = np.asarray(stamps, dtype=np.int64)
         input_stamps = np.asarray(input_stamps, dtype=np.int64)
@@ -419,6 +544,68 @@ class EventStream:
                 return steady
         samples = engine.process_recorded(measured, outputs[good])
         return replay_arrays(samples, estimator.n_states, n_outputs)
+
+    def replay_events(self, events) -> list:
+        """
+        Feed recorded messages in the order given (a bag's), as live, then flush.
+
+        The way to replay several measurement sources: each :class:`RecordedEvent` goes to
+        :meth:`add_input` or :meth:`add_measurement` with its arrival time as the
+        receiver's clock, so the estimates equal those of the live stream fed the same
+        messages in the same order, bit for bit.
+
+        Parameters
+        ----------
+        events : iterable of RecordedEvent
+
+        Returns
+        -------
+        list of EstimateSample
+            What the stream returned, in order (corrected ones included).
+
+        """
+        samples: list = []
+        for source, stamp, values, arrival in events:
+            now = int(arrival) or None
+            if source == INPUT:
+                samples += self.add_input(stamp, values, now)
+            else:
+                samples += self.add_measurement(stamp, values, now, int(arrival), source)
+        return samples + self.flush()
+
+    def _replay_history(self, input_stamps, inputs, stamps, outputs, input_arrivals,
+                        arrivals) -> ReplayArrays:
+        """:meth:`replay` with a history: message by message, in arrival order when given."""
+        engine, estimator = self.engine, self.estimator
+        if len(engine.measurement_sources) > 1:
+            raise ValueError('replay: several measurement sources; give the recording to '
+                             'replay_events, message by message')
+        name = engine.measurement_sources[0].name
+        n_inputs = estimator.n_inputs
+        outputs = np.ascontiguousarray(outputs, dtype=float).reshape(-1, estimator.n_outputs)
+        inputs = (np.ascontiguousarray(inputs, dtype=float).reshape(-1, n_inputs) if n_inputs
+                  else np.zeros((len(input_stamps), 0)))
+        input_stamps = np.asarray(input_stamps, dtype=np.int64)
+        stamps = np.asarray(stamps, dtype=np.int64)
+        if len(stamps) != len(outputs) or len(input_stamps) != len(inputs):
+            raise ValueError('replay: stamps and values differ in length')
+        if arrivals is not None and input_arrivals is not None:
+            order = sorted(
+                [(int(t), 0, k) for k, t in enumerate(np.asarray(input_arrivals).tolist())]
+                + [(int(t), 1, k) for k, t in enumerate(np.asarray(arrivals).tolist())])
+            events = [RecordedEvent(INPUT, int(input_stamps[k]), inputs[k], t) if kind == 0
+                      else RecordedEvent(name, int(stamps[k]), outputs[k], t)
+                      for t, kind, k in order]
+            return replay_arrays(self.replay_events(events), estimator.n_states,
+                                 estimator.n_outputs)
+        good, drops = engine.recorded_rows(inputs, input_stamps, None, self.limits.input)
+        counters = self.counters
+        counters.update(drops)
+        counters['inputs'] += len(input_stamps)
+        engine.store_recorded_inputs(input_stamps[good], inputs[good])
+        samples = self.replay_events(RecordedEvent(name, stamp, y)
+                                     for stamp, y in zip(stamps.tolist(), outputs))
+        return replay_arrays(samples, estimator.n_states, estimator.n_outputs)
 
     def _replay_steady(self, stamps, outputs) -> Optional[ReplayArrays]:
         """

@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-The wire codec: CDR bytes of the two vector message types to and from numpy, without ROS.
+The wire codec: CDR bytes of the messages robots publish to and from numpy, without ROS.
 
 The nodes read and write their topics with it (:mod:`observer_ros.ros.messages`), the bag
 tools their recorded messages (:mod:`observer_ros.bags.storage`); it imports no rclpy, so
@@ -25,9 +25,18 @@ the values change. :func:`decode` parses one message of each layout byte by byte
 which messages share it (every byte but the stamp and the doubles) and reads all of them
 with one numpy view; messages of other layouts are parsed one by one. :func:`encode` fills
 a serialized template the same way. The results equal ``rosbags``' own (de)serializer.
+
+The messages robots publish are read by field path (:class:`FieldReader`,
+:func:`decode_fields`; :class:`FieldWriter` writes commands): ``sensor_msgs/JointState`` by
+joint name and field, ``std_msgs/Float64MultiArray`` by index, and the fixed-layout types of
+:data:`FIXED_LAYOUTS` (``sensor_msgs/Imu``, ``nav_msgs/Odometry``, the stamped geometry
+messages, ``geometry_msgs/Twist``, ``std_msgs/Float64``), whose doubles sit at fixed places
+after the header's strings: one length read per string, then one ``struct`` call for the
+wanted doubles. A quaternion offers its ``roll``, ``pitch`` and ``yaw`` as derived fields.
 """
 
 from dataclasses import dataclass
+import math
 import struct
 from typing import Optional, Sequence
 
@@ -186,14 +195,25 @@ def joint_order(given: Sequence[str], wanted: Sequence[str]) -> list:
     return [index[name] for name in wanted]
 
 
-def _select(layout: Layout, kind: str, field: str, names: Sequence[str]) -> tuple:
-    """Return ``(offset, count, order)`` of the wanted values in a layout."""
+def _select(layout: Layout, kind: str, field: str, names: Sequence[str],
+            indices: Optional[Sequence[int]] = None) -> tuple:
+    """
+    Return ``(offset, count, order)`` of the wanted values in a layout.
+
+    ``indices`` (Float64MultiArray): the wanted entries of ``data`` (any length holding
+    them), instead of every entry (``names`` then counts them).
+    """
     if kind == 'joint_state':
         offset, count = layout.arrays[field]
         if count != len(layout.names):
             raise DecodeError(f'{len(layout.names)} names but {count} {field} values')
         return offset, count, joint_order(layout.names, names)
     offset, count = layout.arrays['data']
+    if indices is not None:
+        if count <= max(indices):
+            raise DecodeError(f'expected at least {max(indices) + 1} values in data, got '
+                              f'{count}')
+        return offset, count, list(indices)
     if count != len(names):
         raise DecodeError(f'expected {len(names)} values in data, got {count}')
     return offset, count, list(range(count))
@@ -257,6 +277,10 @@ def decode(raws: Sequence[bytes], kind: str, field: str, names: Sequence[str]) -
 
 
 STAMP = struct.Struct('<iI')
+#: A CDR string's length (with its NUL) or a sequence's count.
+LENGTH = struct.Struct('<I')
+#: A header's stamp and the length of its ``frame_id``.
+STAMP_LENGTH = struct.Struct('<iII')
 
 
 #: Layouts a :class:`MessageReader` remembers (several publishers on one topic).
@@ -293,10 +317,12 @@ class MessageReader:
     with three comparisons instead of one per fixed range.
     """
 
-    def __init__(self, kind: str, field: str, names: Sequence[str]) -> None:
+    def __init__(self, kind: str, field: str, names: Sequence[str],
+                 indices: Optional[Sequence[int]] = None) -> None:
         self.kind = kind
         self.field = field
         self.names = list(names)
+        self.indices = None if indices is None else list(indices)
         self._known: list = []
         self._last: Optional[_Known] = None
         self._last_bytes: tuple = ()
@@ -320,7 +346,8 @@ class MessageReader:
                     self._known.insert(0, self._known.pop(index))
                 return known
         layout = parse_layout(raw, self.kind)
-        offset, count, order = _select(layout, self.kind, self.field, self.names)
+        offset, count, order = _select(layout, self.kind, self.field, self.names,
+                                       self.indices)
         stamp_end = ORIGIN + 8 if self.kind == 'joint_state' else ORIGIN
         stamp_start = min(ORIGIN, stamp_end)
         spans = ((0, stamp_start), (stamp_end, offset), (offset + 8 * count, layout.size))
@@ -425,3 +452,473 @@ class Encoder:
         flat = rows.tobytes()
         size = self.template.size
         return [flat[start:start + size] for start in range(0, len(flat), size)]
+
+
+# --- fields by path: the messages robots publish ----------------------------------------------
+
+#: Derived fields of a quaternion (``orientation.yaw``): its roll, pitch and yaw angles.
+ANGLES = ('roll', 'pitch', 'yaw')
+
+
+class FieldPathError(ValueError):
+    """A field path that a message type does not have (the message lists the ones it has)."""
+
+
+@dataclass(frozen=True)
+class FixedLayout:
+    """
+    A message type whose doubles sit at fixed places after its strings.
+
+    ``stamped``: it starts with a ``std_msgs/Header`` (stamp, ``frame_id``); ``strings``: how
+    many strings come before the doubles (the ``frame_id`` and, for Odometry,
+    ``child_frame_id``); ``doubles``: the path of each double, in wire order.
+    """
+
+    stamped: bool
+    strings: int
+    doubles: tuple
+
+
+def _leaves(prefix: str, names: Sequence[str]) -> tuple:
+    return tuple(f'{prefix}.{name}' if prefix else name for name in names)
+
+
+def _array(prefix: str, count: int) -> tuple:
+    return tuple(f'{prefix}[{k}]' for k in range(count))
+
+
+_XYZ = ('x', 'y', 'z')
+_POSE = _leaves('position', _XYZ) + _leaves('orientation', _XYZ + ('w',))
+_TWIST = _leaves('linear', _XYZ) + _leaves('angular', _XYZ)
+
+
+def _under(prefix: str, paths: tuple) -> tuple:
+    return tuple(f'{prefix}.{path}' for path in paths)
+
+
+#: The fixed-layout types, by their full names.
+FIXED_LAYOUTS = {
+    'std_msgs/msg/Float64': FixedLayout(False, 0, ('data',)),
+    'geometry_msgs/msg/Twist': FixedLayout(False, 0, _TWIST),
+    'geometry_msgs/msg/TwistStamped': FixedLayout(True, 1, _under('twist', _TWIST)),
+    'geometry_msgs/msg/WrenchStamped': FixedLayout(
+        True, 1, _under('wrench', _leaves('force', _XYZ) + _leaves('torque', _XYZ))),
+    'geometry_msgs/msg/PointStamped': FixedLayout(True, 1, _leaves('point', _XYZ)),
+    'geometry_msgs/msg/Vector3Stamped': FixedLayout(True, 1, _leaves('vector', _XYZ)),
+    'geometry_msgs/msg/PoseStamped': FixedLayout(True, 1, _under('pose', _POSE)),
+    'sensor_msgs/msg/Imu': FixedLayout(
+        True, 1, _leaves('orientation', _XYZ + ('w',)) + _array('orientation_covariance', 9)
+        + _leaves('angular_velocity', _XYZ) + _array('angular_velocity_covariance', 9)
+        + _leaves('linear_acceleration', _XYZ)
+        + _array('linear_acceleration_covariance', 9)),
+    'nav_msgs/msg/Odometry': FixedLayout(
+        True, 2, _under('pose.pose', _POSE) + _array('pose.covariance', 36)
+        + _under('twist.twist', _TWIST) + _array('twist.covariance', 36)),
+}
+
+#: Every type a :class:`FieldReader` reads, by full name (the short names of the vector
+#: topics, ``joint_state`` and ``float64_multi_array``, are accepted too).
+FIELD_TYPES = (JOINT_STATE, FLOAT64_MULTI_ARRAY) + tuple(FIXED_LAYOUTS)
+
+
+def full_type_name(msgtype: str) -> str:
+    """
+    Return the full name of a message type: ``pkg/msg/Type`` from ``pkg/Type`` or a short name.
+
+    Examples
+    --------
+    >>> full_type_name('sensor_msgs/Imu'), full_type_name('joint_state')
+    ('sensor_msgs/msg/Imu', 'sensor_msgs/msg/JointState')
+
+    """
+    if msgtype in MESSAGE_TYPES:
+        return MESSAGE_TYPES[msgtype]
+    parts = msgtype.split('/')
+    if len(parts) == 2:
+        return f'{parts[0]}/msg/{parts[1]}'
+    return msgtype
+
+
+def quaternions(layout: FixedLayout) -> tuple:
+    """Return the prefixes of the quaternions of a layout (``x, y, z, w`` in a row)."""
+    doubles = layout.doubles
+    return tuple(path[:-2] for k, path in enumerate(doubles)
+                 if path.endswith('.x') and doubles[k + 1:k + 4] == _leaves(
+                     path[:-2], ('y', 'z', 'w')))
+
+
+def _summary(paths: Sequence[str]) -> list:
+    """Paths with each array written once, as ``name[0..8]``."""
+    shown, arrays = [], {}
+    for path in paths:
+        if path.endswith(']'):
+            name = path[:path.index('[')]
+            if name not in arrays:
+                arrays[name] = len(shown)
+                shown.append(name)
+            shown[arrays[name]] = f'{name}[0..{path[path.index("[") + 1:-1]}]'
+        else:
+            shown.append(path)
+    return shown
+
+
+def field_names(msgtype: str) -> list:
+    """
+    Return the field paths a message type offers (arrays written ``name[0..8]``).
+
+    Examples
+    --------
+    >>> field_names('geometry_msgs/msg/PointStamped')
+    ['point.x', 'point.y', 'point.z']
+    >>> field_names('geometry_msgs/PoseStamped')[-4:]
+    ['pose.orientation.w', 'pose.orientation.roll', 'pose.orientation.pitch', \
+'pose.orientation.yaw']
+
+    """
+    msgtype = full_type_name(msgtype)
+    if msgtype == JOINT_STATE:
+        return [f'{field}.<joint name>' for field in JOINT_STATE_FIELDS]
+    if msgtype == FLOAT64_MULTI_ARRAY:
+        return ['data[<index>]']
+    layout = FIXED_LAYOUTS.get(msgtype)
+    if layout is None:
+        raise FieldPathError(f'message type {msgtype!r} is not read by field path; expected '
+                             f'one of {list(FIELD_TYPES)}')
+    paths = list(layout.doubles)
+    for prefix in quaternions(layout):
+        at = paths.index(f'{prefix}.w') + 1
+        paths[at:at] = _leaves(prefix, ANGLES)
+    return _summary(paths)
+
+
+def _refuse(path: str, msgtype: str, reason: str = '') -> FieldPathError:
+    return FieldPathError(f'{path!r} is no field of {msgtype}{reason}; it has '
+                          f'{", ".join(field_names(msgtype))}')
+
+
+#: A quaternion whose squared norm is outside this range is scaled before its angles.
+QUATERNION_NORMS = (1e-200, 1e200)
+
+
+def quaternion_angle(name: str, x: float, y: float, z: float, w: float) -> float:
+    """
+    Return the roll, pitch or yaw of a quaternion ``(x, y, z, w)`` (any norm).
+
+    The Z-Y-X (yaw, pitch, roll) Euler angles, as tf2's ``getEulerYPR`` gives them away from
+    a pitch of 90 degrees, in forms that do not need a unit quaternion (scaled first when
+    its entries are huge or tiny, so that any finite quaternion gives a finite angle; the
+    zero quaternion gives 0).
+
+    Examples
+    --------
+    >>> round(quaternion_angle('yaw', 0.0, 0.0, math.sin(0.25), math.cos(0.25)), 12)
+    0.5
+
+    """
+    return _ANGLE_OF[name](x, y, z, w)
+
+
+def _scaled(angle, x: float, y: float, z: float, w: float) -> float:
+    """``angle`` of a quaternion whose squared norm is out of :data:`QUATERNION_NORMS`."""
+    largest = max(abs(x), abs(y), abs(z), abs(w))
+    if not largest:
+        return 0.0
+    return angle(x / largest, y / largest, z / largest, w / largest)
+
+
+def _yaw(x: float, y: float, z: float, w: float) -> float:
+    yy, zz = y * y, z * z
+    rest = w * w + x * x
+    if not QUATERNION_NORMS[0] < rest + yy + zz < QUATERNION_NORMS[1]:
+        return _scaled(_yaw, x, y, z, w)
+    return math.atan2(2.0 * (w * z + x * y), rest - yy - zz)
+
+
+def _roll(x: float, y: float, z: float, w: float) -> float:
+    xx, yy = x * x, y * y
+    rest = w * w + z * z
+    if not QUATERNION_NORMS[0] < rest + xx + yy < QUATERNION_NORMS[1]:
+        return _scaled(_roll, x, y, z, w)
+    return math.atan2(2.0 * (w * x + y * z), rest - xx - yy)
+
+
+def _pitch(x: float, y: float, z: float, w: float) -> float:
+    norm = x * x + y * y + z * z + w * w
+    if not QUATERNION_NORMS[0] < norm < QUATERNION_NORMS[1]:
+        return _scaled(_pitch, x, y, z, w)
+    return math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x) / norm)))
+
+
+_ANGLE_OF = {'roll': _roll, 'pitch': _pitch, 'yaw': _yaw}
+
+
+def _picker(steps: list):
+    """
+    Return a function of the doubles read that gives the wanted fields, in order.
+
+    Made once per reader (the way :func:`collections.namedtuple` makes its methods): a
+    plain list of indexed doubles and angle calls, with no loop or test per message.
+    """
+    terms = [f'v[{step[0]}]' if len(step) == 1
+             else f'{step[0]}(v[{step[1]}], v[{step[2]}], v[{step[3]}], v[{step[4]}])'
+             for step in steps]
+    return eval(f'lambda v: [{", ".join(terms)}]', dict(_ANGLE_OF))  # noqa: S307
+
+
+class _FixedReader:
+    """Read wanted doubles of a fixed layout: one ``struct`` call after the strings."""
+
+    def __init__(self, msgtype: str, layout: FixedLayout, fields: Sequence[str]) -> None:
+        self.stamped = layout.stamped
+        self.strings = layout.strings
+        self.size = 8 * len(layout.doubles)
+        index = {path: k for k, path in enumerate(layout.doubles)}
+        wanted, recipe = [], []  # doubles to read; per field: a double or an angle
+        for path in fields:
+            prefix, _, leaf = path.rpartition('.')
+            if path in index:
+                recipe.append((index[path],))
+            elif leaf in ANGLES and prefix in quaternions(layout):
+                recipe.append((leaf, *(index[f'{prefix}.{q}'] for q in 'xyzw')))
+            else:
+                raise _refuse(path, msgtype)
+            wanted += [k for k in recipe[-1] if isinstance(k, int)]
+        read = sorted(set(wanted))
+        form, at = ['<'], read[0]
+        for k in read:
+            form.append(f'{8 * (k - at)}x' if k > at else '')
+            form.append('d')
+            at = k + 1
+        self.values = struct.Struct(''.join(form))
+        self.skip = 8 * read[0]  # from the first double to the first one read
+        place = {k: position for position, k in enumerate(read)}
+        steps = [(place[step[0]],) if len(step) == 1
+                 else (step[0], *(place[k] for k in step[1:])) for step in recipe]
+        self._pick = list if steps == [(k,) for k in range(len(read))] else _picker(steps)
+        self.read_parts = self._one_string if self.strings == 1 else self._any_strings
+
+    def _one_string(self, raw) -> tuple:
+        """Read a message with a header and no other string (all but Odometry)."""
+        try:
+            seconds, nanoseconds, length = STAMP_LENGTH.unpack_from(raw, ORIGIN)
+            start = ORIGIN + 12 + length
+            start += (ORIGIN - start) % 8
+            if len(raw) < start + self.size:
+                raise DecodeError(f'truncated message ({len(raw)} bytes, expected '
+                                  f'{start + self.size})')
+            return seconds, nanoseconds, self._pick(self.values.unpack_from(
+                raw, start + self.skip))
+        except struct.error as e:
+            raise DecodeError(f'truncated message ({e})') from None
+
+    def _any_strings(self, raw) -> tuple:
+        """Read a message with any number of strings before its doubles."""
+        try:
+            offset = ORIGIN + 8 if self.stamped else ORIGIN
+            for _ in range(self.strings):
+                offset += (ORIGIN - offset) % 4
+                offset += 4 + LENGTH.unpack_from(raw, offset)[0]
+            start = offset + (ORIGIN - offset) % 8
+            if len(raw) < start + self.size:
+                raise DecodeError(f'truncated message ({len(raw)} bytes, expected '
+                                  f'{start + self.size})')
+            seconds, nanoseconds = STAMP.unpack_from(raw, ORIGIN) if self.stamped else (0, 0)
+            return seconds, nanoseconds, self._pick(self.values.unpack_from(
+                raw, start + self.skip))
+        except struct.error as e:
+            raise DecodeError(f'truncated message ({e})') from None
+
+
+class FieldReader:
+    """
+    Read chosen fields of one message type, by path, from serialized messages.
+
+    Parameters
+    ----------
+    msgtype : str
+        One of :data:`FIELD_TYPES` (``sensor_msgs/msg/Imu``; ``sensor_msgs/Imu`` and the short
+        names ``joint_state``, ``float64_multi_array`` are accepted).
+    fields : sequence of str
+        Field paths, in the order of the vector read: ``angular_velocity.z``,
+        ``twist.twist.linear.x``, ``pose.pose.orientation.yaw`` (the derived angle of a
+        quaternion: ``roll``, ``pitch``, ``yaw``); for JointState ``<field>.<joint name>``
+        (``position.shoulder``; the field is ``position``, ``velocity`` or ``effort``); for
+        Float64MultiArray ``data[<index>]``; for Float64 ``data``.
+
+    Attributes
+    ----------
+    msgtype : str
+        The full type name.
+    stamped : bool
+        The type has a header stamp.
+
+    Raises
+    ------
+    FieldPathError
+        A type not read by field path, or a path the type does not have: the message names
+        the path, the type and the fields it has.
+
+    Examples
+    --------
+    >>> reader = FieldReader('geometry_msgs/Twist', ['angular.z', 'linear.x'])
+    >>> raw = HEADER + struct.pack('<6d', 0.5, 0.0, 0.0, 0.0, 0.0, -1.5)
+    >>> reader.read(raw)
+    (0, [-1.5, 0.5])
+    >>> FieldReader('geometry_msgs/msg/Twist', ['linear.w'])  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    observer_ros.ros.cdr.FieldPathError: 'linear.w' is no field of geometry_msgs/msg/Twist; \
+it has linear.x, linear.y, linear.z, angular.x, angular.y, angular.z
+
+    """
+
+    def __init__(self, msgtype: str, fields: Sequence[str]) -> None:
+        self.msgtype = msgtype = full_type_name(msgtype)
+        self.fields = list(fields)
+        if not self.fields:
+            raise FieldPathError(f'expected at least one field of {msgtype}, got none')
+        self.stamped = msgtype != FLOAT64_MULTI_ARRAY and (
+            msgtype == JOINT_STATE or FIXED_LAYOUTS.get(msgtype, FixedLayout(False, 0, ()))
+            .stamped)
+        if msgtype == JOINT_STATE:
+            self._readers = self._joint_readers()
+        elif msgtype == FLOAT64_MULTI_ARRAY:
+            indices = [self._index(path) for path in self.fields]
+            self._readers = [(MessageReader('float64_multi_array', 'data', [], indices), None)]
+        else:
+            layout = FIXED_LAYOUTS.get(msgtype)
+            if layout is None:
+                field_names(msgtype)  # raises, listing the types
+            self._readers = [(_FixedReader(msgtype, layout, self.fields), None)]
+        #: :meth:`read_parts` of a message known to be little-endian plain CDR.
+        self.read_little_endian = (self._readers[0][0].read_parts if len(self._readers) == 1
+                                   else self._read_several)
+
+    def _index(self, path: str) -> int:
+        """Return the index of ``data[<index>]`` (Float64MultiArray)."""
+        if path.startswith('data[') and path.endswith(']') and path[5:-1].isdigit():
+            return int(path[5:-1])
+        raise _refuse(path, self.msgtype)
+
+    def _joint_readers(self) -> list:
+        """One reader per JointState field, with the places of its joints in the vector."""
+        by_field: dict = {}
+        for position, path in enumerate(self.fields):
+            field, _, joint = path.partition('.')
+            if field not in JOINT_STATE_FIELDS or not joint:
+                raise _refuse(path, self.msgtype, ' (expected <field>.<joint name>)')
+            by_field.setdefault(field, []).append((position, joint))
+        return [(MessageReader('joint_state', field, [joint for _, joint in wanted]),
+                 None if len(by_field) == 1 else [position for position, _ in wanted])
+                for field, wanted in by_field.items()]
+
+    def read_parts(self, raw) -> tuple:
+        """
+        Return ``(sec, nanosec, values)``: the stamp as held (zeros without one) and the fields.
+
+        Raises
+        ------
+        DecodeError
+            Not little-endian plain CDR, truncated, or without a wanted field (a joint
+            missing, ``data`` too short).
+
+        """
+        if raw[:2] != HEADER[:2]:
+            raise DecodeError('not little-endian plain CDR')
+        return self.read_little_endian(raw)
+
+    def _read_several(self, raw) -> tuple:
+        """Read a JointState whose fields come from several of its arrays."""
+        values = [0.0] * len(self.fields)
+        for reader, places in self._readers:
+            seconds, nanoseconds, part = reader.read_parts(raw)
+            for place, value in zip(places, part):
+                values[place] = value
+        return seconds, nanoseconds, values
+
+    def read(self, raw) -> tuple:
+        """Return ``(stamp_ns, values)`` (0 without a stamp); raises as :meth:`read_parts`."""
+        seconds, nanoseconds, values = self.read_parts(raw)
+        return seconds * 1_000_000_000 + nanoseconds, values
+
+
+def decode_fields(raws: Sequence[bytes], msgtype: str, fields: Sequence[str]) -> tuple:
+    """
+    Decode serialized messages of one type into stamps and the vectors of chosen fields.
+
+    The batch form of :class:`FieldReader` (bags): message by message.
+
+    Returns
+    -------
+    stamps : numpy.ndarray of int64, shape (k,)
+        Header stamps in nanoseconds (0 without one).
+    values : numpy.ndarray, shape (k, len(fields))
+    errors : dict
+        ``{index: reason}`` of messages that could not be decoded (their rows are NaN).
+
+    Raises
+    ------
+    FieldPathError
+        As :class:`FieldReader`.
+
+    """
+    reader = FieldReader(msgtype, fields)
+    stamps = np.zeros(len(raws), dtype=np.int64)
+    values = np.full((len(raws), len(reader.fields)), np.nan)
+    errors: dict = {}
+    for index, raw in enumerate(raws):
+        try:
+            stamps[index], values[index] = reader.read(raw)
+        except DecodeError as e:
+            errors[index] = str(e)
+    return stamps, values, errors
+
+
+class FieldWriter:
+    """
+    Serialize vectors into chosen fields of a fixed-layout message type (the others zero).
+
+    For publishing commands as the robot takes them (``geometry_msgs/Twist`` on
+    ``/cmd_vel``); stamped where the type has a header (``frame_id`` empty). Derived fields
+    (``yaw``) cannot be written.
+
+    Examples
+    --------
+    >>> writer = FieldWriter('geometry_msgs/Twist', ['linear.x', 'angular.z'])
+    >>> FieldReader('geometry_msgs/Twist', ['angular.z']).read(writer.write(0, [0.5, -1.0]))
+    (0, [-1.0])
+
+    """
+
+    def __init__(self, msgtype: str, fields: Sequence[str]) -> None:
+        msgtype = full_type_name(msgtype)
+        layout = FIXED_LAYOUTS.get(msgtype)
+        if layout is None:
+            raise FieldPathError(f'message type {msgtype!r} is not written by field path; '
+                                 f'expected one of {list(FIXED_LAYOUTS)}')
+        index = {path: k for k, path in enumerate(layout.doubles)}
+        for path in fields:
+            if path not in index:
+                raise _refuse(path, msgtype, ' that can be written')
+        buffer = bytearray(HEADER + bytes(8 if layout.stamped else 0))
+        for _ in range(layout.strings):  # empty strings: a length of 1 and the NUL
+            buffer += bytes((-(len(buffer) - ORIGIN)) % 4) + LENGTH.pack(1) + b'\x00'
+        buffer += bytes((-(len(buffer) - ORIGIN)) % 8)
+        self._start = len(buffer)
+        buffer += bytes(8 * len(layout.doubles))
+        self._buffer = buffer
+        self.stamped = layout.stamped
+        self._places = [self._start + 8 * index[path] for path in fields]
+        self._double = struct.Struct('<d')
+
+    def write(self, stamp_ns: int, values) -> bytes:
+        """Return the message holding ``values`` in the fields, stamped ``stamp_ns``."""
+        buffer = self._buffer
+        if self.stamped:
+            STAMP.pack_into(buffer, ORIGIN, *divmod(int(stamp_ns), 1_000_000_000))
+        if isinstance(values, np.ndarray):
+            values = values.tolist()
+        pack = self._double.pack_into
+        for place, value in zip(self._places, values):
+            pack(buffer, place, value)
+        return bytes(buffer)

@@ -24,8 +24,14 @@ on arrival (ros2_control forward command controllers take this type).
 Nodes subscribe and publish serialized messages (``raw=True``): the codec reads and writes
 the CDR bytes directly (:mod:`observer_ros.ros.cdr`, the same code as the bag tools), which
 skips building Python message objects on the hot path. Message objects are accepted too.
+
+:class:`FieldCodec` reads the messages robots publish by field path (``sensor_msgs/Imu``
+``angular_velocity.z``, ``nav_msgs/Odometry`` ``twist.twist.linear.x``, a pose's
+``pose.orientation.yaw``...; see :class:`~observer_ros.ros.cdr.FieldReader`), with the
+same rules: a malformed message raises :class:`MalformedMessage`, never gives NaN.
 """
 
+import importlib
 import math
 import struct
 from typing import Optional, Sequence
@@ -39,8 +45,9 @@ from observer_ros.config import Configuration
 from observer_ros.config.schema import topic_names
 from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.cdr import (
-    DecodeError, HEADER, joint_order, JOINT_STATE_FIELDS, MessageReader, MessageWriter,
-    ORIGIN, parse_layout, STAMP)
+    ANGLES, DecodeError, FieldReader, FieldWriter, FLOAT64_MULTI_ARRAY, HEADER,
+    joint_order, JOINT_STATE, JOINT_STATE_FIELDS, MessageReader, MessageWriter, ORIGIN,
+    parse_layout, quaternion_angle, STAMP)
 
 MESSAGE_CLASSES = {'joint_state': JointState, 'float64_multi_array': Float64MultiArray}
 
@@ -80,7 +87,43 @@ def check_publishable_stamp(stamp_ns: int) -> int:
     return stamp_ns
 
 
-class VectorCodec:
+class WireDecoding:
+    """
+    What the decoders of a topic share: an array from the values, the general deserializer.
+
+    A subclass has ``topic``, ``message_class`` and ``decode_values(message)``.
+    """
+
+    topic: str
+    message_class: type
+
+    def decode(self, message) -> tuple[Optional[int], np.ndarray]:
+        """
+        Return ``(stamp_ns, vector)``; the stamp is None when the message carries none.
+
+        ``message`` is a message object or its serialized bytes. A zero stamp counts as
+        none.
+
+        Raises
+        ------
+        MalformedMessage
+            Undecodable or truncated bytes, wrong length, a missing joint or index, a
+            non-finite value, or a stamp that is no time (``nanosec >= 1e9``, negative
+            ``sec``).
+
+        """
+        stamp, values = self.decode_values(message)
+        return stamp, np.array(values, dtype=float)
+
+    def _deserialize(self, raw: bytes) -> object:
+        """Return the message object of bytes that are not little-endian plain CDR."""
+        try:
+            return deserialize_message(raw, self.message_class)
+        except Exception as e:  # the type support raises plain RuntimeError / others
+            raise MalformedMessage(f'{self.topic}: cannot deserialize ({e})') from None
+
+
+class VectorCodec(WireDecoding):
     """
     Convert between one topic's messages and ``(stamp_ns, vector)``.
 
@@ -165,23 +208,6 @@ class VectorCodec:
                 self._order_cache[key] = order
         return order
 
-    def decode(self, message) -> tuple[Optional[int], np.ndarray]:
-        """
-        Return ``(stamp_ns, vector)``; the stamp is None when the message carries none.
-
-        ``message`` is a message object or its serialized bytes. A JointState whose stamp is
-        zero counts as unstamped.
-
-        Raises
-        ------
-        MalformedMessage
-            Undecodable bytes, wrong length, missing joints, a non-finite value, or a stamp
-            that is no time (``nanosec >= 1e9``, negative ``sec``).
-
-        """
-        stamp, values = self.decode_values(message)
-        return stamp, np.array(values, dtype=float)
-
     def decode_values(self, message) -> tuple[Optional[int], list]:
         """Return what :meth:`decode` does, the values as a list of floats (no array)."""
         if isinstance(message, bytes):
@@ -220,11 +246,125 @@ class VectorCodec:
         if problem:
             raise MalformedMessage(f'{self.topic}: {problem}')
 
-    def _deserialize(self, raw: bytes) -> object:
+
+def message_class(msgtype: str):
+    """Return the Python class of a message type (``sensor_msgs/msg/Imu``)."""
+    package, _, name = msgtype.split('/')
+    return getattr(importlib.import_module(f'{package}.msg'), name)
+
+
+class FieldCodec(WireDecoding):
+    """
+    Read (and, for fixed-layout types, write) chosen fields of one topic's messages.
+
+    Parameters
+    ----------
+    topic : str
+        Topic or source name, used in error messages.
+    msgtype : str
+        A type of :data:`observer_ros.ros.cdr.FIELD_TYPES`.
+    fields : sequence of str
+        Field paths, in vector order (see :class:`~observer_ros.ros.cdr.FieldReader`).
+
+    Raises
+    ------
+    observer_ros.ros.cdr.FieldPathError
+        A type not read by field path or a path it does not have, naming the path, the type
+        and the fields it has.
+
+    Examples
+    --------
+    >>> from sensor_msgs.msg import Imu
+    >>> message = Imu()
+    >>> message.header.stamp.sec, message.angular_velocity.z = 3, 0.25
+    >>> codec = FieldCodec('imu0', 'sensor_msgs/msg/Imu', ['angular_velocity.z'])
+    >>> codec.decode(serialize_message(message))
+    (3000000000, array([0.25]))
+
+    """
+
+    def __init__(self, topic: str, msgtype: str, fields: Sequence[str]) -> None:
+        self.topic = topic
+        self._reader = FieldReader(msgtype, fields)
+        self.msgtype = self._reader.msgtype
+        self.fields = list(fields)
+        self.size = len(self.fields)
+        self.stamped = self._reader.stamped
+        self._read = self._reader.read_little_endian
+        self._writer: Optional[FieldWriter] = None
+        self.message_class = message_class(self.msgtype)
+
+    def decode_values(self, message) -> tuple[Optional[int], list]:
+        """Return what :meth:`decode` does, the values as a list of floats (no array)."""
+        if isinstance(message, bytes):
+            if message[:2] != HEADER[:2]:  # big-endian or exotic: the general deserializer
+                return self.decode_values(self._deserialize(message))
+            try:
+                seconds, nanoseconds, values = self._read(message)
+            except DecodeError as e:
+                raise MalformedMessage(f'{self.topic}: {e}') from None
+        else:
+            seconds, nanoseconds, values = self._object_parts(message)
+        if self.stamped and (seconds < 0 or nanoseconds >= NANOSECONDS):
+            problem = stamp_problem(seconds, nanoseconds)
+            if problem:
+                raise MalformedMessage(f'{self.topic}: {problem}')
+        if not math.isfinite(sum(values)) and not all(map(math.isfinite, values)):
+            raise MalformedMessage(f'{self.topic}: non-finite value in {values}')
+        return seconds * NANOSECONDS + nanoseconds or None, values
+
+    def _object_parts(self, message) -> tuple:
+        """``(sec, nanosec, values)`` of a message object, field by field."""
+        values = []
         try:
-            return deserialize_message(raw, self.message_class)
-        except Exception as e:  # the type support raises plain RuntimeError / others
-            raise MalformedMessage(f'{self.topic}: cannot deserialize ({e})') from None
+            for path in self.fields:
+                values.append(float(self._object_field(message, path)))
+        except DecodeError as e:
+            raise MalformedMessage(f'{self.topic}: {e}') from None
+        except (IndexError, AttributeError, TypeError, ValueError) as e:
+            raise MalformedMessage(f'{self.topic}: cannot read {path!r} ({e})') from None
+        if not self.stamped:
+            return 0, 0, values
+        return message.header.stamp.sec, message.header.stamp.nanosec, values
+
+    def _object_field(self, message, path: str):
+        if self.msgtype == JOINT_STATE:
+            field, _, joint = path.partition('.')
+            given = getattr(message, field)
+            if len(given) != len(message.name):
+                raise DecodeError(f'{len(message.name)} names but {len(given)} {field} '
+                                  f'values')
+            return given[joint_order(message.name, [joint])[0]]
+        if self.msgtype == FLOAT64_MULTI_ARRAY:
+            return message.data[int(path[5:-1])]
+        *parents, leaf = path.split('.')
+        for name in parents:
+            message = getattr(message, name)
+        if leaf in ANGLES:
+            return quaternion_angle(leaf, message.x, message.y, message.z, message.w)
+        if leaf.endswith(']'):
+            name, _, index = leaf[:-1].partition('[')
+            return getattr(message, name)[int(index)]
+        return getattr(message, leaf)
+
+    def encode(self, stamp_ns: int, vector) -> bytes:
+        """
+        Serialize a message with ``vector`` in the fields (others zero), stamped if it can be.
+
+        Raises
+        ------
+        observer_ros.ros.cdr.FieldPathError
+            A type that is not of fixed layout (JointState, Float64MultiArray: see
+            :class:`VectorCodec`) or a derived field.
+        ValueError
+            The stamp does not fit ``builtin_interfaces/Time``.
+
+        """
+        if self._writer is None:
+            self._writer = FieldWriter(self.msgtype, self.fields)
+        if self.stamped:
+            check_publishable_stamp(stamp_ns)
+        return self._writer.write(stamp_ns, vector)
 
 
 class JointStatesEncoder:

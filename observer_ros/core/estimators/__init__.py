@@ -25,7 +25,8 @@ filter) implements :class:`Estimator` in its package;
 from observer_ros.core.estimators.constant_gain import (
     ConstantGainEstimator, StepDesign, StepMatrices)
 from observer_ros.core.estimators.intervals import IntervalCache
-from observer_ros.core.estimators.protocol import Estimator, Prediction, SteadySteps
+from observer_ros.core.estimators.protocol import (
+    Estimator, Prediction, SteadySteps, SubsetUpdates)
 
 __all__ = ['ConstantGainEstimator', 'Estimator', 'IntervalCache', 'Prediction', 'SteadySteps',
-           'StepDesign', 'StepMatrices']
+           'StepDesign', 'StepMatrices', 'SubsetUpdates']

@@ -24,17 +24,19 @@ steady rate costs one matrix-vector product per update and jittered stamps stay 
 continuous model the poles are placed again for each new interval (:meth:`StepDesign.step`).
 """
 
-from dataclasses import dataclass, field
+import copy
+from dataclasses import dataclass, field, replace
 from typing import Optional
 
 import numpy as np
 
+from observer_ros.core.analysis import format_modes, pbh_lost_modes
 from observer_ros.core.discretize import transition, zero_order_hold
 from observer_ros.core.errors import ConfigError, DesignError, StampError
 from observer_ros.core.estimators.intervals import (
     DEFAULT_CACHE_SIZE, IntervalCache, IntervalDesigns)
 from observer_ros.core.estimators.protocol import (
-    Estimator, PinnedInitialState, Prediction, SteadySteps)
+    Estimator, PinnedInitialState, Prediction, SteadySteps, SubsetUpdates)
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.placement import place_observer
 from observer_ros.core.poles import to_discrete
@@ -170,6 +172,99 @@ class StepDesign:
         """Estimate at the first sample; reduced observers make it agree with ``y``."""
         return initial_state.copy()
 
+    def several_sources_problem(self) -> Optional[str]:
+        """
+        Say why this design takes no several sources (None: it does).
+
+        The base answer: the observer is built on every output (the reduced-order types
+        are), so each update needs them all. A type that designs per subset of outputs
+        overrides this, :meth:`subset_problem` and :meth:`for_outputs`.
+        """
+        return ('this observer needs every output at each update (it is built on all of '
+                'them); it takes one measurement source with every output')
+
+    def subset_problem(self, outputs: tuple) -> Optional[str]:
+        """Say why a step from ``outputs`` alone cannot be designed (None: it can)."""
+        return self.several_sources_problem()
+
+    def for_outputs(self, outputs: tuple) -> 'StepDesign':
+        """
+        Return the step design of an update with ``outputs`` alone (ascending indices).
+
+        A copy of this design for the model with those rows of ``C`` (a type with more
+        per-output data, a noise block, extends it).
+
+        Raises
+        ------
+        DesignError
+            What :meth:`subset_problem` says.
+
+        """
+        problem = self.subset_problem(outputs)
+        if problem is not None:
+            raise DesignError(problem)
+        subset = copy.copy(self)
+        subset.model = outputs_model(self.model, outputs)
+        return subset
+
+    def unseen_modes(self, outputs: tuple, growing_only: bool = False) -> str:
+        """
+        Return the modes of ``A`` that ``outputs`` cannot see, as text (empty: none).
+
+        ``growing_only``: only those that do not decay (an undetectable subset).
+        """
+        model = self.model
+        lost = pbh_lost_modes(model.a, model.c[list(outputs)])
+        if growing_only:
+            lost = [mode for mode in lost if not decaying(mode, model.is_discrete)]
+        return format_modes(lost) if len(lost) else ''
+
+
+def outputs_model(model: StateSpaceModel, outputs: tuple) -> StateSpaceModel:
+    """Return ``model`` with the rows of ``C`` and ``D`` (and names) of ``outputs`` only."""
+    index = list(outputs)
+    rows = len(index)
+    return replace(model, c=np.ascontiguousarray(model.c[index]).reshape(rows, model.n_states),
+                   d=np.ascontiguousarray(model.d[index]).reshape(rows, model.n_inputs),
+                   output_names=tuple(model.output_names[k] for k in index)
+                   if model.output_names else ())
+
+
+def decaying(mode: complex, discrete: bool) -> bool:
+    """Whether an eigenvalue decays (inside the unit circle, or in the open left half-plane)."""
+    margin = 1e-9 * max(1.0, abs(mode))
+    return abs(mode) < 1.0 - margin if discrete else mode.real < -margin
+
+
+class PredictOnlyStep(StepDesign):
+    """
+    The step of an update with no output: ``x_hat = Ad x_hat + Bd u`` (a predict-only source).
+
+    For a Kalman design the step reports the nominal covariance ``Ad P Ad^T + Qd`` carried
+    from the steady filtered ``P`` of the design with every output.
+    """
+
+    kind = 'predict_only'
+
+    def __init__(self, base: StepDesign) -> None:
+        super().__init__(outputs_model(base.model, ()))
+        self.base = base
+        self.process_noise = base.process_noise
+
+    def design_step(self, ad, bd, dt) -> StepMatrices:
+        """Assemble the prediction (no gain; the error dynamics are the plant's)."""
+        n = ad.shape[0]
+        covariance = None
+        if self.process_noise is not None:
+            full = self.base.design_step(ad, bd, dt)
+            if full.covariance is not None:
+                model = self.base.model
+                qd = transition(model, dt if dt else model.dt, self.process_noise)[2]
+                covariance = ad @ full.covariance @ ad.T + qd
+                covariance = 0.5 * (covariance + covariance.T)
+        return assemble_step(ad, bd, np.zeros((n, 0)), self.model.c, ad, bd,
+                             np.linalg.eigvals(ad), covariance, np.zeros((0, 0)))
+
 
 def place_sampled(a: np.ndarray, c: np.ndarray, poles: np.ndarray, method: str):
     """
@@ -194,7 +289,8 @@ def least_norm_consistent(c: np.ndarray, initial_state: np.ndarray, y: np.ndarra
     return initial_state + correction
 
 
-class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Estimator):
+class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, SubsetUpdates,
+                            Estimator):
     """
     The constant-gain estimator: one matrix ``G`` per sample interval, cached by interval.
 
@@ -255,6 +351,8 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Es
         self._buffer = np.zeros(self.n_states + self.n_inputs)
         self._prepared: Optional[tuple] = None
         self._result: Optional[np.ndarray] = None
+        self._subsets: dict = {}  # outputs -> (step design, interval cache) of a subset
+        self._subset_step: Optional[tuple] = None  # (step, interval) of the last subset update
 
     # The state, the innovation and the last step's [x; innovation]. A prepared step
     # (advance_prepared) leaves them as a list of floats; they become arrays when first read,
@@ -361,6 +459,9 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Es
     def last_interval_ns(self) -> int:
         """The interval of the last step in nanoseconds (0 at a first sample)."""
         last = self.intervals.last_dt_ns
+        subset = self._subset_step
+        if subset is not None and self._step is subset[0]:
+            return subset[1]
         return 0 if self._step is None or last is None else last
 
     def adopt(self, other: Estimator) -> None:
@@ -377,8 +478,9 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Es
         return self._step
 
     def _forget_intervals(self) -> None:
-        """Drop the prepared step of the old rounding (the resolution changed)."""
+        """Drop the prepared step and the subsets' steps of the old rounding."""
         self._prepared = None
+        self._subsets = {}
 
     def step_matrices(self, dt_ns: int) -> StepMatrices:
         """Return the (cached) step matrices for an interval in nanoseconds."""
@@ -392,15 +494,7 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Es
         checking whole arrays at once.
         """
         if self._stamp is None:
-            prior = self._start
-            if self._start_pinned:
-                self._x = self.design.initial_estimate(prior, y)
-            else:
-                self._x = least_norm_consistent(self.design.model.c, prior, y)
-            self._innovation = y - self.design.model.c @ prior
-            self._result = None
-            self._stamp = stamp_ns
-            return self._x
+            return self._start_at(stamp_ns, y, self.design)
         dt_ns = stamp_ns - self._stamp
         if dt_ns <= 0:
             raise StampError(
@@ -423,12 +517,85 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Es
         self._step = step
         return self._x
 
+    def _start_at(self, stamp_ns: int, y: np.ndarray, design: StepDesign) -> np.ndarray:
+        """
+        Start the estimate at a first sample (of ``design``'s outputs).
+
+        Pinned: as the design makes it; unpinned: the point nearest the prior that gives
+        ``y`` (the prior itself when there is no output).
+        """
+        prior = self._start
+        c = design.model.c
+        if self._start_pinned or not len(c):
+            self._x = design.initial_estimate(prior, y)
+        else:
+            self._x = least_norm_consistent(c, prior, y)
+        self._innovation = y - c @ prior
+        self._result = None
+        self._stamp = stamp_ns
+        return self._x
+
     def _known_part(self, step: StepMatrices, u: np.ndarray) -> np.ndarray:
         buffer = self._buffer
         n = self.n_states
         buffer[:n] = self._x
         buffer[n:] = u
         return step.g_known @ buffer
+
+    def several_sources_problem(self) -> Optional[str]:
+        """Say why the step design takes no several sources (None: it does)."""
+        return self.design.several_sources_problem()
+
+    def subset_problem(self, outputs: tuple) -> Optional[str]:
+        """Say why ``outputs`` alone cannot be updated with: the step design's answer."""
+        if len(outputs) == self.n_outputs:
+            return None
+        problem = self.design.several_sources_problem()
+        if problem is not None or not outputs:
+            return problem
+        return self.design.subset_problem(tuple(outputs))
+
+    def _subset(self, outputs: tuple) -> tuple:
+        """``(step design, interval cache)`` of an update with ``outputs`` (made on first use)."""
+        subset = self._subsets.get(outputs)
+        if subset is None:
+            design = (PredictOnlyStep(self.design) if not outputs
+                      else self.design.for_outputs(outputs))
+            subset = (design, IntervalCache(design.step, self.intervals.size,
+                                            self.intervals.resolution_ns))
+            self._subsets[outputs] = subset
+        return subset
+
+    def advance_outputs(self, stamp_ns: int, y: np.ndarray, u: np.ndarray,
+                        outputs: tuple) -> np.ndarray:
+        """
+        Take the values ``y`` of ``outputs``: the step designed for those outputs alone.
+
+        Each subset of outputs has its own step design (:meth:`StepDesign.for_outputs`: a
+        gain placed, or a Riccati equation solved, for those rows of ``C``), made on first
+        use and cached per interval like the one of every output. Every output:
+        :meth:`advance`; none: the prediction.
+        """
+        if len(outputs) == self.n_outputs:
+            return self.advance(stamp_ns, y, u)
+        design, cache = self._subset(outputs)
+        self._prepared = None
+        if self._stamp is None:
+            return self._start_at(stamp_ns, y, design)
+        dt_ns = stamp_ns - self._stamp
+        if dt_ns <= 0:
+            raise StampError(
+                f'stamp {stamp_ns} ns is not after the previous sample ({self._stamp} ns)')
+        step = cache.get(dt_ns)
+        result = self._known_part(step, u) + output_term(step, y)
+        n = self.n_states
+        self._result = result
+        self._x = result[:n]
+        self._innovation = result[n:]
+        self._stamp = stamp_ns
+        self._step = step
+        self._subset_step = (step, dt_ns)
+        return self._x
 
     def prepare(self, u: np.ndarray, limits: Optional[tuple] = None) -> None:
         """
@@ -571,3 +738,4 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Es
         self.intervals.clear(recent=False)
         self._transitions.clear()
         self._prepared = None
+        self._subsets = {}

@@ -24,7 +24,9 @@ estimator without one returns None for :attr:`Estimator.covariance`,
 :class:`~observer_ros.core.streaming.EventStream` drives any estimator through this protocol
 alone. An implementation may also offer the fast paths of :class:`SteadySteps` (a prepared
 steady step, a batch over many samples, equal bit for bit to :meth:`Estimator.advance`); the
-stream takes them when it is given one, as a private optimisation.
+stream takes them when it is given one, as a private optimisation. An estimator that can
+update with some of the outputs (several measurement sources at their own rates) offers
+:class:`SubsetUpdates`; the stream asks for it with ``isinstance``, never by type name.
 
 Two implementations exist: the
 :class:`~observer_ros.core.estimators.constant_gain.ConstantGainEstimator` (one matrix per
@@ -288,3 +290,46 @@ class SteadySteps(ABC):
     @abstractmethod
     def advance_many(self, stamps_ns, outputs, inputs) -> tuple:
         """Run many samples at once: ``(estimates, innovations)``, as advance one by one."""
+
+
+class SubsetUpdates(ABC):
+    """
+    Updates with some of the outputs: several measurement sources, each at its own rate.
+
+    A capability (the stream asks with ``isinstance``). ``outputs`` is a tuple of ascending
+    output indices; the empty tuple predicts over the interval without a correction (a
+    predict-only source). The estimate, covariance and stamps are the ones
+    :meth:`Estimator.advance` keeps, so updates with all outputs and with some of them
+    follow each other freely; after an update with some outputs, :attr:`Estimator.innovation`
+    and :attr:`Estimator.innovation_covariance` have their size.
+    """
+
+    def several_sources_problem(self) -> Optional[str]:
+        """
+        Say why this estimator takes no several sources at all (None: it does).
+
+        An estimator whose implementation can update with some outputs may still be made
+        for a design that needs every output at each update (a reduced-order observer); it
+        says so here, and a configuration of several sources is refused with that reason.
+        """
+        return None
+
+    @abstractmethod
+    def subset_problem(self, outputs: tuple) -> Optional[str]:
+        """
+        Say why an update from ``outputs`` alone cannot be made (None: it can).
+
+        Asked at start-up for each source (:func:`~observer_ros.core.sources.check_subsets`):
+        for a design made per subset of outputs, an unobservable (or undetectable) subset,
+        naming the modes the outputs cannot see.
+        """
+
+    @abstractmethod
+    def advance_outputs(self, stamp_ns: int, y: np.ndarray, u: np.ndarray,
+                        outputs: tuple) -> np.ndarray:
+        """
+        Take the values ``y`` of ``outputs`` (checked already); return the estimate.
+
+        With every output this is :meth:`Estimator.advance` exactly; with none, a
+        prediction to ``stamp_ns``.
+        """

@@ -82,7 +82,10 @@ class Capabilities:
         analysis (closed-loop poles, ``G_oc``) is made from it; without one it is skipped
         with a note.
     several_sources : bool
-        It can take measurements from several sources, each with some of the outputs.
+        It can take measurements from several sources, each with some of the outputs, at
+        their own rates: its estimator offers
+        :class:`~observer_ros.core.estimators.SubsetUpdates` (an update from the outputs
+        that arrived). A type without it refuses a configuration of several sources.
     disturbance_arguments : tuple of str
         Its arguments that only apply to a model with ``model.disturbances`` (refused
         without), which the type itself consumes from the disturbance transform it is

@@ -49,8 +49,7 @@ def _estimator(design, values, initial_state=None, interval_resolution_ns=0):
 TYPE = ObserverType(
     NAME, 'Luenberger observer of order n', POLE_ARGUMENTS + (FORM,),
     design=_design, estimator=_estimator,
-    # An update from some outputs is defined (the pair (A, C_subset) designed per subset);
-    # several sources are taken once a design per subset of them exists.
+    # An update from some outputs: the pair (A, C_subset) designed per subset of sources.
     capabilities=Capabilities(covariance=False, needs_every_output=False,
-                              linear_realization=True, several_sources=False),
+                              linear_realization=True, several_sources=True),
     priority=500, charged=charged_poles_or_gain, pinned=pinned_gain)

@@ -18,7 +18,14 @@ Sampled full-order observer in current-estimator form.
 Per interval: ``x_prior = Ad x_hat + Bd u`` and ``x_hat = x_prior + M (y - C x_prior)``, so
 the error obeys ``e_new = (I - M C) Ad e``; ``M`` places ``eig((I - M C) Ad)`` at
 ``exp(lambda dt)`` (the pair ``(Ad, C Ad)``).
+
+With several measurement sources each subset of outputs gets its own ``M``, placed at the
+same poles for the pair ``(Ad, C_s Ad)`` of its rows of ``C`` (``FullOrderStep.for_outputs``),
+designed on first use and cached per interval; a subset that cannot see every mode of ``A``
+is refused, naming the modes.
 """
+
+from typing import Optional
 
 import numpy as np
 
@@ -68,3 +75,21 @@ class FullOrderStep(StepDesign):
         else:
             gain = place_sampled(ad, c @ ad, poles, self.method).gain
         return current_form(ad, bd, c, gain, poles)
+
+    def several_sources_problem(self) -> Optional[str]:
+        """None, unless a given gain of a discrete model is used as it is (every output)."""
+        if self.filter_gain is not None:
+            return ('a given gain L of a discrete model is used as it is, for every output; '
+                    'give poles so that a gain is designed for each subset of outputs')
+        return None
+
+    def subset_problem(self, outputs: tuple) -> Optional[str]:
+        """Say why ``outputs`` alone cannot have a gain: the modes they cannot see."""
+        problem = self.several_sources_problem()
+        if problem is not None:
+            return problem
+        unseen = self.unseen_modes(outputs)
+        if unseen:
+            return (f'(A, C) of these outputs is not observable: the modes {unseen} cannot be '
+                    f'seen from them, so no observer of them alone can place its poles')
+        return None

@@ -130,6 +130,6 @@ TYPE = ObserverType(
     (PROCESS_NOISE, MEASUREMENT_NOISE, DISTURBANCE_NOISE, TIME_VARYING, INITIAL_COVARIANCE,
      FORM), design=_design, estimator=_estimator, report=_report, vet=_vet,
     capabilities=Capabilities(covariance=True, needs_every_output=False,
-                              linear_realization=True, several_sources=False,
+                              linear_realization=True, several_sources=True,
                               disturbance_arguments=('disturbance_noise',)),
     priority=200, charged=_charged)

@@ -18,7 +18,16 @@ Sampled steady-state Kalman filter in current (filter) form.
 For a continuous model each interval is discretized exactly (zero-order hold, Van Loan for
 the process noise intensity) and the DARE solved for that interval; a discrete model uses
 its own ``Q`` and ``R``. The step reports the filtered covariance ``(I - M C) P``.
+
+With several measurement sources each subset of outputs has its own steady filter: the DARE
+of its rows of ``C`` and its block of ``R`` (:meth:`KalmanStep.for_outputs`), solved on first
+use and cached per interval. A subset that leaves a mode unseen and not decaying has no
+steady filter and is refused, naming the modes.
 """
+
+from typing import Optional
+
+import numpy as np
 
 from observer_ros.core.discretize import van_loan
 from observer_ros.core.estimators.constant_gain import StepDesign, StepMatrices
@@ -45,3 +54,24 @@ class KalmanStep(StepDesign):
         innovation = model.c @ sampled.covariance @ model.c.T + self.measurement_noise
         return current_form(ad, bd, model.c, sampled.filter_gain, sampled.achieved_poles,
                             sampled.filtered_covariance, 0.5 * (innovation + innovation.T))
+
+    def several_sources_problem(self) -> Optional[str]:
+        """None: a steady filter is made for each subset of outputs."""
+        return None
+
+    def subset_problem(self, outputs: tuple) -> Optional[str]:
+        """Say why ``outputs`` alone have no steady filter: modes unseen and not decaying."""
+        unseen = self.unseen_modes(outputs, growing_only=True)
+        if unseen:
+            return (f'(A, C) of these outputs is not detectable: the modes {unseen} cannot be '
+                    f'seen from them and do not decay, so no steady-state Kalman filter of '
+                    f'them alone exists')
+        return None
+
+    def for_outputs(self, outputs: tuple) -> 'KalmanStep':
+        """Return the step design of these outputs: their rows of ``C``, their block of ``R``."""
+        subset = super().for_outputs(outputs)
+        index = list(outputs)
+        subset.measurement_noise = np.ascontiguousarray(
+            self.measurement_noise[np.ix_(index, index)])
+        return subset

@@ -24,6 +24,10 @@ model uses its own ``A``, ``B``, ``Q`` once per sample):
   ``S = C P- C^T + R``, ``K = P- C^T S^-1``, ``v = y - C x-``, ``x = x- + K v``,
   ``P = (I - K C) P- (I - K C)^T + K R K^T``.
 
+With several measurement sources (:class:`~observer_ros.core.estimators.SubsetUpdates`)
+an update takes the rows of ``C`` and the block of ``R`` of the outputs that arrived; with
+none, the prediction is kept.
+
 The first sample is an update of the prior ``(x0, P0)``: ``x0`` is ``initial_state`` (zero
 when not given) and ``P0`` the initial covariance. At a fixed rate ``P`` and ``K`` converge to
 the steady-state filter's
@@ -43,7 +47,7 @@ from observer_ros.core.discretize import transition
 from observer_ros.core.errors import ConfigError, StampError
 from observer_ros.core.estimators.intervals import IntervalCache, IntervalDesigns
 from observer_ros.core.estimators.protocol import (
-    Estimator, PinnedInitialState, Prediction)
+    Estimator, PinnedInitialState, Prediction, SubsetUpdates)
 from observer_ros.core.flat_matrices import covariance_from_flat
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.units import NANOSECONDS
@@ -67,7 +71,7 @@ def parse_initial_covariance(values, n_states: int) -> np.ndarray:
     return matrix
 
 
-class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, Estimator):
+class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Estimator):
     """
     Kalman filter whose covariance follows the actual sample intervals.
 
@@ -123,6 +127,7 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, Estimator):
         self._identity = np.eye(n)
         self._c_row = self.model.c[0].copy() if self.n_outputs == 1 else None
         self._r_value = float(self.measurement_noise[0, 0])
+        self._subsets: dict = {}
         self.reset()
 
     # --- state -----------------------------------------------------------------------------
@@ -182,11 +187,20 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, Estimator):
             return self.model.a, self.model.b, self.process_noise
         return transition(self.model, key_ns / NANOSECONDS, self.process_noise)
 
-    def _measure(self, x_prior: np.ndarray, p_prior: np.ndarray, y: np.ndarray) -> None:
-        if self.n_outputs == 1:
-            self._measure_one(x_prior, p_prior, y)
+    def _measure(self, x_prior: np.ndarray, p_prior: np.ndarray, y: np.ndarray,
+                 rows: Optional[tuple] = None) -> None:
+        """Update ``(x-, P-)`` with ``y``: every output, or the ``rows`` of :meth:`_rows`."""
+        if rows is None:
+            c, r, c_row, r_value = (self.model.c, self.measurement_noise, self._c_row,
+                                    self._r_value)
+        else:
+            c, r, c_row, r_value = rows
+        if c_row is not None:
+            self._measure_one(x_prior, p_prior, y, c_row, r_value)
             return
-        c, r = self.model.c, self.measurement_noise
+        if not len(c):
+            self._predict_only(x_prior, p_prior)
+            return
         pc = p_prior @ c.T
         s = c @ pc + r
         innovation = y - c @ x_prior
@@ -207,9 +221,9 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, Estimator):
         self._innovation, self._s, self._k, self._nis = innovation, s, k, float(nis)
         self._one = None
 
-    def _measure_one(self, x_prior: np.ndarray, p_prior: np.ndarray, y: np.ndarray) -> None:
+    def _measure_one(self, x_prior: np.ndarray, p_prior: np.ndarray, y: np.ndarray,
+                     c: np.ndarray, r: float) -> None:
         """:meth:`_measure` for one output: the same steps on vectors, ``S`` a number."""
-        c, r = self._c_row, self._r_value
         pc = p_prior @ c
         variance = float(c @ pc) + r
         k = pc / variance
@@ -226,23 +240,63 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, Estimator):
         self._one = (innovation, variance, k)  # the arrays of the properties, when read
         self._nis = innovation * innovation / variance
 
+    def _predict_only(self, x_prior: np.ndarray, p_prior: np.ndarray) -> None:
+        """Keep the prediction ``(x-, P-)``: an update with no output."""
+        self._x = x_prior
+        self._p = 0.5 * (p_prior + p_prior.T)
+        self._innovation = np.zeros(0)
+        self._s, self._k = np.zeros((0, 0)), np.zeros((self.n_states, 0))
+        self._nis, self._one = 0.0, None
+
+    def _rows(self, outputs: tuple) -> tuple:
+        """``(C_s, R_s, c_row, r_value)`` of some outputs (cached): the rows of C and R."""
+        rows = self._subsets.get(outputs)
+        if rows is None:
+            index = list(outputs)
+            c = np.ascontiguousarray(self.model.c[index])
+            r = np.ascontiguousarray(self.measurement_noise[np.ix_(index, index)])
+            one = len(index) == 1
+            rows = (c, r, c[0].copy() if one else None, float(r[0, 0]) if one else 0.0)
+            self._subsets[outputs] = rows
+        return rows
+
     def advance(self, stamp_ns: int, y: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Take a sample whose values are checked already; return ``x[k|k]``."""
+        self._measure(*self._prior(stamp_ns, u), y)
+        self._stamp = stamp_ns
+        return self._x
+
+    def _prior(self, stamp_ns: int, u: np.ndarray) -> tuple:
+        """``(x-, P-)`` at ``stamp_ns``: the prior, or the estimate predicted over the interval."""
         if self._stamp is None:
-            self._measure(self._prior_x, self._prior_p, y)
             self._last_interval = 0
-        else:
-            dt_ns = stamp_ns - self._stamp
-            if dt_ns <= 0:
-                raise StampError(f'stamp {stamp_ns} ns is not after the previous sample '
-                                 f'({self._stamp} ns)')
-            intervals = self.intervals
-            ad, bd, qd = (intervals.last if dt_ns == intervals.last_dt_ns
-                          else intervals.get(dt_ns))
-            p_prior = ad @ self._p @ ad.T
-            p_prior += qd
-            self._measure(ad @ self._x + bd @ u, p_prior, y)
-            self._last_interval = dt_ns
+            return self._prior_x, self._prior_p
+        dt_ns = stamp_ns - self._stamp
+        if dt_ns <= 0:
+            raise StampError(f'stamp {stamp_ns} ns is not after the previous sample '
+                             f'({self._stamp} ns)')
+        intervals = self.intervals
+        ad, bd, qd = (intervals.last if dt_ns == intervals.last_dt_ns
+                      else intervals.get(dt_ns))
+        p_prior = ad @ self._p @ ad.T
+        p_prior += qd
+        self._last_interval = dt_ns
+        return ad @ self._x + bd @ u, p_prior
+
+    def subset_problem(self, outputs: tuple) -> Optional[str]:
+        """None: the filter updates with any rows of ``C`` (its covariance says the rest)."""
+        return None
+
+    def advance_outputs(self, stamp_ns: int, y: np.ndarray, u: np.ndarray,
+                        outputs: tuple) -> np.ndarray:
+        """
+        Take the values ``y`` of ``outputs``: the update with those rows of ``C`` and ``R``.
+
+        Every output: :meth:`advance`; none: the prediction ``(x-, P-)`` is kept.
+        """
+        if len(outputs) == self.n_outputs:
+            return self.advance(stamp_ns, y, u)
+        self._measure(*self._prior(stamp_ns, u), y, self._rows(outputs))
         self._stamp = stamp_ns
         return self._x
 
@@ -310,6 +364,7 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, Estimator):
         self.model = other.model
         self.process_noise, self.measurement_noise = other.process_noise, other.measurement_noise
         self._c_row, self._r_value = other._c_row, other._r_value
+        self._subsets = {}
         self.initial_covariance = other.initial_covariance
         self.intervals.clear(recent=False)
         self.interval_resolution_ns = other.interval_resolution_ns
