@@ -112,10 +112,92 @@ def default_workers(tasks: int) -> int:
     return max(1, min(int(tasks), os.cpu_count() or 1))
 
 
-def task_mapper(workers: Optional[int] = None, scheduler: Optional[str] = None,
-                stream: Optional[TextIO] = None) -> Callable:
+class TaskMapper:
     """
-    Return ``mapper(function, tasks, label) -> list`` running the tasks as configured.
+    ``mapper(function, tasks, label) -> list``: the tasks run as configured, in task order.
+
+    Use it as a context manager (or call :meth:`close`): local worker processes are started
+    once, on the first call that needs them, and kept for the calls after it (a tuning
+    replays the bags several times).
+    """
+
+    def __init__(self, workers: Optional[int] = None, scheduler: Optional[str] = None,
+                 stream: Optional[TextIO] = None) -> None:
+        if workers is not None and workers < 1:
+            raise ValueError(f'--workers: expected at least 1, got {workers}')
+        self.workers = workers
+        self.scheduler = scheduler
+        self.stream = stream
+        self._pool: Optional[ProcessPoolExecutor] = None
+        self._client = None
+
+    def _dask_client(self):
+        if self._client is None:
+            self._client = _connect(self.scheduler)
+        return self._client
+
+    def __call__(self, function: Callable, tasks: Sequence, label: str = 'bags') -> list:
+        tasks = list(tasks)
+        progress = Progress(len(tasks), label, self.stream)
+        try:
+            if self.scheduler is not None:
+                return _on_dask(self._dask_client(), function, tasks, progress)
+            count = (default_workers(len(tasks)) if self.workers is None
+                     else min(self.workers, len(tasks)))
+            if count <= 1:
+                results = []
+                for task in tasks:
+                    results.append(function(task))
+                    progress.advance()
+                return results
+            return self._in_processes(function, tasks, progress)
+        finally:
+            progress.close()
+
+    def _executor(self, function: Callable) -> ProcessPoolExecutor:
+        if self._pool is None:
+            context = multiprocessing.get_context('forkserver')
+            # Workers fork from a server that has imported the task's module already.
+            context.set_forkserver_preload([function.__module__])
+            count = self.workers or os.cpu_count() or 1
+            self._pool = ProcessPoolExecutor(max_workers=count, mp_context=context)
+        return self._pool
+
+    def _in_processes(self, function: Callable, tasks: list, progress: Progress) -> list:
+        pool = self._executor(function)
+        results: list = [None] * len(tasks)
+        futures = {pool.submit(_limited, function, task): index
+                   for index, task in enumerate(tasks)}
+        try:
+            for future in as_completed(futures):
+                results[futures[future]] = future.result()
+                progress.advance()
+        except BaseException:
+            for future in futures:
+                future.cancel()
+            raise
+        return results
+
+    def close(self) -> None:
+        """Stop the worker processes, if any were started."""
+        if self._pool is not None:
+            self._pool.shutdown(cancel_futures=True)
+            self._pool = None
+        if self._client is not None:
+            self._client.close()
+            self._client = None
+
+    def __enter__(self) -> 'TaskMapper':
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def task_mapper(workers: Optional[int] = None, scheduler: Optional[str] = None,
+                stream: Optional[TextIO] = None) -> TaskMapper:
+    """
+    Return a :class:`TaskMapper` running tasks as configured.
 
     Parameters
     ----------
@@ -133,66 +215,31 @@ def task_mapper(workers: Optional[int] = None, scheduler: Optional[str] = None,
         ``workers`` below 1.
 
     """
-    if workers is not None and workers < 1:
-        raise ValueError(f'--workers: expected at least 1, got {workers}')
-
-    def mapper(function: Callable, tasks: Sequence, label: str = 'bags') -> list:
-        tasks = list(tasks)
-        progress = Progress(len(tasks), label, stream)
-        try:
-            if scheduler is not None:
-                return _on_dask(scheduler, function, tasks, progress)
-            count = default_workers(len(tasks)) if workers is None else min(workers,
-                                                                              len(tasks))
-            if count <= 1:
-                results = []
-                for task in tasks:
-                    results.append(function(task))
-                    progress.advance()
-                return results
-            return _in_processes(count, function, tasks, progress)
-        finally:
-            progress.close()
-
-    return mapper
+    return TaskMapper(workers, scheduler, stream)
 
 
-def _in_processes(count: int, function: Callable, tasks: list, progress: Progress) -> list:
-    results: list = [None] * len(tasks)
-    context = multiprocessing.get_context('forkserver')
-    with ProcessPoolExecutor(max_workers=count, mp_context=context) as pool:
-        futures = {pool.submit(_limited, function, task): index
-                   for index, task in enumerate(tasks)}
-        try:
-            for future in as_completed(futures):
-                results[futures[future]] = future.result()
-                progress.advance()
-        except BaseException:
-            for future in futures:
-                future.cancel()
-            raise
-    return results
-
-
-def _on_dask(address: str, function: Callable, tasks: list, progress: Progress) -> list:
+def _connect(address: str):
+    """Return a Dask client of the scheduler at ``address``."""
     try:
-        from distributed import as_completed as dask_completed, Client
+        from distributed import Client
     except ImportError as e:
         raise ValueError('--dask: the distributed package is not installed') from e
     try:
-        client = Client(address, timeout=CONNECT_TIMEOUT, set_as_default=False)
+        return Client(address, timeout=CONNECT_TIMEOUT, set_as_default=False)
     except (OSError, TimeoutError) as e:
         raise ValueError(f'--dask: cannot reach the scheduler at {address} ({e})') from e
-    try:
-        futures = client.map(function, tasks, pure=False)
-        index = {future.key: position for position, future in enumerate(futures)}
-        results: list = [None] * len(tasks)
-        for future in dask_completed(futures):
-            results[index[future.key]] = future.result()
-            progress.advance()
-        return results
-    finally:
-        client.close()
 
 
-__all__ = ['Progress', 'default_workers', 'single_threaded_blas', 'task_mapper']
+def _on_dask(client, function: Callable, tasks: list, progress: Progress) -> list:
+    from distributed import as_completed as dask_completed
+    futures = client.map(function, tasks, pure=False)
+    index = {future.key: position for position, future in enumerate(futures)}
+    results: list = [None] * len(tasks)
+    for future in dask_completed(futures, loop=client.loop):
+        results[index[future.key]] = future.result()
+        progress.advance()
+    return results
+
+
+__all__ = ['Progress', 'TaskMapper', 'default_workers', 'single_threaded_blas',
+           'task_mapper']

@@ -122,6 +122,10 @@ class KalmanSetup:
         return SampledFilter(step.ad, model.c, gain, period_ns / NANOSECONDS,
                              None if model.is_discrete else model.a)
 
+    def innovation_covariance(self, period_ns: int) -> np.ndarray:
+        """``S = C P C^T + R`` of the steady-state filter over one period, ``(p, p)``."""
+        return KalmanStep(self.system.observer).step(int(period_ns)).innovation_covariance
+
     def with_noises(self, process_noise, measurement_noise,
                     diagonal_process: bool = False,
                     diagonal_measurement: bool = False) -> 'KalmanSetup':

@@ -76,9 +76,6 @@ class BagRun:
     stamps_ns : numpy.ndarray of int64, shape (k,)
     innovations : numpy.ndarray, shape (k, p)
     estimates : numpy.ndarray, shape (k, n)
-    nis : numpy.ndarray, shape (k,)
-    innovation_covariance : numpy.ndarray, shape (p, p)
-        The filter's steady ``S``.
     starts : numpy.ndarray of int
         Index of the first sample of each segment.
     period_ns : int
@@ -92,8 +89,6 @@ class BagRun:
     stamps_ns: np.ndarray
     innovations: np.ndarray
     estimates: np.ndarray
-    nis: np.ndarray
-    innovation_covariance: np.ndarray
     starts: np.ndarray
     period_ns: int
     truth_stamps_ns: Optional[np.ndarray] = None
@@ -160,14 +155,13 @@ def bag_innovations(bag: str, parameters: dict, y_topic: str = 'y', u_topic: str
             truth_stamps, truth = data.stamps_ns, data.values
         except BagError:
             pass  # no reference in this bag
-    covariance = (result.innovation_covariances[-1] if result.innovation_covariances is not None
-                  else None)
-    nis = result.nis
-    if covariance is None or nis is None:
-        raise BagError(f'{bag}: the filter gave no innovation covariance; a Kalman filter '
-                       f'is needed')
-    return BagRun(str(bag), result.stamps_ns, result.innovations, result.estimates,
-                  np.asarray(nis), np.asarray(covariance), starts, period, truth_stamps, truth)
+    return BagRun(str(bag), result.stamps_ns, result.innovations, result.estimates, starts,
+                  period, truth_stamps, truth)
+
+
+def normalized_squares(innovations: np.ndarray, covariance: np.ndarray) -> np.ndarray:
+    """Return the NIS ``e^T S^-1 e`` of each innovation, shape (k,)."""
+    return np.einsum('ki,ij,kj->k', innovations, np.linalg.inv(covariance), innovations)
 
 
 def common_period(runs: Sequence[BagRun], setup: KalmanSetup) -> int:
@@ -218,9 +212,11 @@ class Pooled:
     whiteness: Whiteness
 
 
-def pool(runs: Sequence[BagRun], lags: int, burn_in: int) -> Pooled:
+def pool(runs: Sequence[BagRun], lags: int, burn_in: int, covariance: np.ndarray) -> Pooled:
     """
     Pool the innovations of every segment of every bag, after ``burn_in`` samples each.
+
+    ``covariance`` is the filter's innovation covariance ``S`` (for the NIS).
 
     Raises
     ------
@@ -240,7 +236,7 @@ def pool(runs: Sequence[BagRun], lags: int, burn_in: int) -> Pooled:
                 continue
             kept = slice(part.start + burn_in, part.stop)
             statistics.add(run.innovations[kept])
-            nis.append(run.nis[kept])
+            nis.append(normalized_squares(run.innovations[kept], covariance))
     needed = SAMPLES_PER_LAG * lags
     if statistics.samples < needed:
         total = sum(len(run.stamps_ns) for run in runs)
@@ -262,6 +258,10 @@ class TuningRun:
     ``setups[0]`` is the file's filter, ``setups[-1]`` the tuned one; ``runs`` and
     ``pooled`` hold one entry per filter run (``iterations + 1`` of them).
     """
+
+    def innovation_covariance(self, index: int) -> np.ndarray:
+        """``S`` of filter run ``index`` at the bags' period."""
+        return self.setups[index].innovation_covariance(self.period_ns)
 
     period_ns: int
     lags: list = field(default_factory=list)
@@ -335,7 +335,7 @@ def tune_noises(bags: Sequence[str], setup: KalmanSetup, structure: NoiseStructu
         sampled.check_stable()
         count = lags if lags is not None else default_lags(sampled)
         skip = burn_in if burn_in is not None else default_burn_in(sampled)
-        pooled = pool(runs, count, skip)
+        pooled = pool(runs, count, skip, current.innovation_covariance(period))
         outcome.lags.append(count)
         outcome.setups.append(current)
         outcome.runs.append(runs)
@@ -355,5 +355,6 @@ def tune_noises(bags: Sequence[str], setup: KalmanSetup, structure: NoiseStructu
 
 
 __all__ = ['BURN_IN_DECAY', 'BagRun', 'ITERATIONS', 'Pooled', 'TuningRun', 'bag_innovations',
-           'common_period', 'default_burn_in', 'default_lags', 'pool', 'run_bags',
+           'common_period', 'default_burn_in', 'default_lags', 'normalized_squares', 'pool',
+           'run_bags',
            'segment_starts', 'tune_noises']

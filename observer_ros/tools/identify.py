@@ -171,9 +171,9 @@ def _run(options) -> int:
         bags = expand_bags(options.bags)
         inputs = [SignalSpec.parse(text) for text in options.inputs]
         outputs = [SignalSpec.parse(text) for text in options.outputs]
-        mapper = task_mapper(options.workers, options.dask)
-        result = identify_bags(bags, inputs, outputs, options.order, mapper, options.holdout,
-                               options.horizon, options.continuous)
+        with task_mapper(options.workers, options.dask) as mapper:
+            result = identify_bags(bags, inputs, outputs, options.order, mapper, options.holdout,
+                                   options.horizon, options.continuous)
         text = summary(result, options.order)
         if options.output:
             write_validated(Path(options.output), model_text(result, text))

@@ -38,7 +38,7 @@ from observer_ros.app.run_report import filter_run_section, HtmlReport
 from observer_ros.bags.collection import expand_bags
 from observer_ros.bags.filter_config import load_kalman_setup
 from observer_ros.bags.storage import BagError
-from observer_ros.bags.tuning import ITERATIONS, tune_noises, TuningRun
+from observer_ros.bags.tuning import ITERATIONS, normalized_squares, tune_noises, TuningRun
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.tuning.als import NoiseStructure, STRUCTURES, WEIGHTINGS
 from observer_ros.signals import stops_on_signal
@@ -161,8 +161,10 @@ def write_report(directory, outcome: TuningRun, bags, text: str) -> Path:
     for label, index in (('before', 0), ('after', -1)):
         run = outcome.runs[index][0]
         pooled = outcome.pooled[index]
+        covariance = outcome.innovation_covariance(index)
         filter_run_section(report, f'{label}: {run.bag}', run.stamps_ns, run.estimates,
-                           run.innovations, run.innovation_covariance, run.nis,
+                           run.innovations, covariance,
+                           normalized_squares(run.innovations, covariance),
                            setup.state_names, setup.output_names,
                            pooled.whiteness.correlation, pooled.whiteness.bound,
                            run.truth_stamps_ns, run.truth)
@@ -226,10 +228,10 @@ def _run(options) -> int:
         structure = NoiseStructure.build(setup.model.n_states, setup.model.n_outputs,
                                          options.process_structure,
                                          options.measurement_structure, known)
-        mapper = task_mapper(options.workers, options.dask)
-        outcome = tune_noises(bags, setup, structure, mapper, options.lags, options.burn_in,
-                              options.iterations, options.y_topic, options.u_topic,
-                              options.weighting, 'x_true' if options.report else None)
+        with task_mapper(options.workers, options.dask) as mapper:
+            outcome = tune_noises(bags, setup, structure, mapper, options.lags, options.burn_in,
+                                  options.iterations, options.y_topic, options.u_topic,
+                                  options.weighting, 'x_true' if options.report else None)
         text = summary(outcome, bags)
         if options.output:
             outcome.tuned.write(options.output, header=f'Tuned by tune_kalman from '
