@@ -55,6 +55,9 @@ BURN_IN_DECAY = 1e-12
 LAG_DECAY = 0.05
 LAG_RANGE = (4, 50)
 
+#: Lags the whiteness is judged over at least (the ALS may use fewer).
+WHITENESS_LAGS = 20
+
 #: Pooled samples needed per lag (after burn-in): fewer is "too short for the lag count".
 SAMPLES_PER_LAG = 50
 
@@ -226,17 +229,15 @@ def pool(runs: Sequence[BagRun], lags: int, burn_in: int, covariance: np.ndarray
     """
     n_outputs = runs[0].innovations.shape[1]
     statistics = InnovationStatistics(lags, n_outputs)
-    dropped = []
-    nis = []
+    dropped, kept = [], []
     for run in runs:
         for part in run.segments():
             length = part.stop - part.start
             if length < burn_in + lags:
                 dropped.append((run.bag, part.start, length))
                 continue
-            kept = slice(part.start + burn_in, part.stop)
-            statistics.add(run.innovations[kept])
-            nis.append(normalized_squares(run.innovations[kept], covariance))
+            kept.append(run.innovations[part.start + burn_in:part.stop])
+            statistics.add(kept[-1])
     needed = SAMPLES_PER_LAG * lags
     if statistics.samples < needed:
         total = sum(len(run.stamps_ns) for run in runs)
@@ -245,9 +246,15 @@ def pool(runs: Sequence[BagRun], lags: int, burn_in: int, covariance: np.ndarray
                        f'segments shorter than burn-in + lags dropped); {lags} lags need at '
                        f'least {needed}: record longer, or give fewer --lags or a shorter '
                        f'--burn-in')
-    values = np.concatenate(nis)
+    values = np.concatenate([normalized_squares(part, covariance) for part in kept])
+    judged = statistics
+    longest = max(len(part) for part in kept)
+    if lags < min(WHITENESS_LAGS, longest):
+        judged = InnovationStatistics(min(WHITENESS_LAGS, longest), n_outputs)
+        for part in kept:
+            judged.add(part)
     return Pooled(statistics, burn_in, tuple(dropped), nis_summary(values, n_outputs),
-                  whiteness(statistics))
+                  whiteness(judged))
 
 
 @dataclass
