@@ -15,6 +15,9 @@
 """
 The HTML reports of ``replay``, ``tune_kalman`` and ``identify``, opened in a real browser.
 
+:func:`check_page` is used here and by ``test_tuning_doc.py``, which renders the reports of
+the documentation's worked example.
+
 Each page is self-contained (inline PNG figures, no network) and headless Chromium renders
 it: the screenshot has the asked size, is not blank and shows the figures' coloured lines.
 Chromium comes from Debian's packages (``scripts/setup_env.sh`` installs it when run as root
@@ -31,10 +34,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from observer_ros.tools.identify import main as identify_main
 from observer_ros.tools.replay import main as replay_main
-from observer_ros.tools.tune_kalman import main as tune_main
-from test_identify import write_third_order
 from tuning_support import COUPLED
 
 WIDTH, HEIGHT = 1200, 2400
@@ -86,29 +86,12 @@ def check_page(page: Path, tmp_path: Path, figures: int, words, render: bool = T
     assert ink > 0.015 and red > 1e-4 and blue > 1e-4
 
 
-def test_the_three_reports_render_in_a_browser(tmp_path, capsys):
+def test_a_single_bag_replay_report_renders_in_a_browser(tmp_path, capsys):
     browser()
-    folder = tmp_path / 'bags'
-    for part in range(2):
-        COUPLED.write_bag(folder / f'part{part}', 1500, seed=part)
-    params = COUPLED.write_parameters(tmp_path / 'start.yaml',
-                                      process_noise=COUPLED.process_noise * 10)
-    assert tune_main([str(folder), params, '--report', str(tmp_path / 'tune'),
-                      '--workers', '1']) == 0
-    check_page(tmp_path / 'tune' / 'tune_kalman.html', tmp_path, 8,
-               ['before: the filter of the parameter file', 'after: the tuned filter',
-                'NIS mean'])
-    assert (tmp_path / 'tune' / 'tune_kalman.json').exists()
-    assert replay_main([str(folder), params, '--report', str(tmp_path / 'replay'),
-                        '--workers', '1']) == 0
-    check_page(tmp_path / 'replay' / 'replay.html', tmp_path, 8, ['part0', 'part1'])
-    assert replay_main([str(folder / 'part0'), params, '--report',
-                        str(tmp_path / 'single')]) == 0
-    check_page(tmp_path / 'single' / 'replay.html', tmp_path, 4, ['part0'], render=False)
-    write_third_order(tmp_path / 'third', 4000)
-    assert identify_main([str(tmp_path / 'third'), '--order', '3', '--report',
-                          str(tmp_path / 'identify')]) == 0
-    check_page(tmp_path / 'identify' / 'identify.html', tmp_path, 2,
-               ['singular values', 'measured against simulated output'])
-    out = capsys.readouterr().out
-    assert out.count('report: ') == 4
+    COUPLED.write_bag(tmp_path / 'run', 1500, seed=1)
+    params = COUPLED.write_parameters(tmp_path / 'params.yaml')
+    assert replay_main([str(tmp_path / 'run'), params, '--report', str(tmp_path / 'single')]) == 0
+    assert 'report: ' in capsys.readouterr().out
+    assert (tmp_path / 'single' / 'replay.png').exists()  # the error plot, as before
+    check_page(tmp_path / 'single' / 'replay.html', tmp_path, 4,
+               ['replay: kalman observer', 'run'])

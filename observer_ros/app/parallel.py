@@ -28,7 +28,7 @@ import it by name).
   (``distributed.Client``); its workers need observer_ros installed.
 """
 
-from concurrent.futures import as_completed, ProcessPoolExecutor
+from concurrent.futures import as_completed, BrokenExecutor, ProcessPoolExecutor
 import contextlib
 import multiprocessing
 import os
@@ -172,6 +172,10 @@ class TaskMapper:
             for future in as_completed(futures):
                 results[futures[future]] = future.result()
                 progress.advance()
+        except BrokenExecutor as e:
+            self.close()
+            raise ValueError(f'--workers: a worker process died ({e}); run with --workers 1 '
+                             f'to see why') from e
         except BaseException:
             for future in futures:
                 future.cancel()
