@@ -83,7 +83,7 @@ def timed(main, args) -> tuple:
 
 
 def tuned(text: str) -> str:
-    """The tuned Q and R as printed."""
+    """Return the tuned Q and R as printed."""
     return text.split('tuned Q')[1].split('ALS system')[0]
 
 

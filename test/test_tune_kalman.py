@@ -162,8 +162,8 @@ def _tuned(args, path) -> np.ndarray:
     return np.concatenate([q.ravel(), r.ravel()])
 
 
-def test_pooling_eight_bags_equals_one_joined_bag_locally_and_on_dask(eight_bags, tmp_path,
-                                                                       capsys):
+def test_pooling_eight_bags_equals_one_joined_bag_locally_and_on_dask(
+        eight_bags, tmp_path, capsys):
     directory, params = eight_bags
     joined = _tuned([str(directory / 'joined'), params], tmp_path / 'joined.yaml')
     local = _tuned([str(directory / 'bags'), params, '--workers', '2'], tmp_path / 'local.yaml')

@@ -77,8 +77,8 @@ def test_the_page_shows_commands():
     assert {'tune_kalman', 'identify', 'replay'} <= set(commands)
 
 
-def test_every_command_of_the_page_runs_and_prints_what_it_shows(tmp_path, capsys,
-                                                                   monkeypatch):
+def test_every_command_of_the_page_runs_and_prints_what_it_shows(
+        tmp_path, capsys, monkeypatch):
     make_example(tmp_path)
     monkeypatch.chdir(tmp_path)
     from distributed import LocalCluster

@@ -137,6 +137,7 @@ class TaskMapper:
         return self._client
 
     def __call__(self, function: Callable, tasks: Sequence, label: str = 'bags') -> list:
+        """Return ``function(task)`` of every task, in the order of ``tasks``."""
         tasks = list(tasks)
         progress = Progress(len(tasks), label, self.stream)
         try:
@@ -192,9 +193,11 @@ class TaskMapper:
             self._client = None
 
     def __enter__(self) -> 'TaskMapper':
+        """Return the mapper; :meth:`close` it on leaving."""
         return self
 
     def __exit__(self, *exc) -> None:
+        """Stop the workers."""
         self.close()
 
 

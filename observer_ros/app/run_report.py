@@ -141,7 +141,7 @@ def _seconds(stamps_ns, origin_ns: int) -> np.ndarray:
 
 def states_figure(stamps_ns, estimates, names: Sequence[str], truth_stamps_ns=None, truth=None,
                   title: str = ''):
-    """``x_hat`` per state, with the reference (``x_true``) where there is one."""
+    """Plot ``x_hat`` per state, with the reference (``x_true``) where there is one."""
     plt = _pyplot()
     count = len(names)
     columns = 2 if count > 1 else 1
@@ -170,7 +170,7 @@ def states_figure(stamps_ns, estimates, names: Sequence[str], truth_stamps_ns=No
 
 def innovations_figure(stamps_ns, innovations, covariance, names: Sequence[str],
                        title: str = ''):
-    """Each innovation with its +-2 sigma band (``sigma^2`` the diagonal of ``S``)."""
+    """Plot each innovation with its +-2 sigma band (``sigma^2`` the diagonal of ``S``)."""
     plt = _pyplot()
     count = len(names)
     figure, axes = plt.subplots(count, 1, figsize=(11, 2.4 * count), squeeze=False)
@@ -193,7 +193,7 @@ def innovations_figure(stamps_ns, innovations, covariance, names: Sequence[str],
 
 
 def nis_figure(stamps_ns, nis, n_outputs: int, window: int = 100, title: str = ''):
-    """The NIS averaged over ``window`` samples, with the 99 % chi-square band of that mean."""
+    """Plot the NIS averaged over ``window`` samples, with the 99 % chi-square band."""
     plt = _pyplot()
     from observer_ros.core.tuning.innovations import moving_mean
     figure, axis = plt.subplots(1, 1, figsize=(11, 3))
@@ -215,7 +215,7 @@ def nis_figure(stamps_ns, nis, n_outputs: int, window: int = 100, title: str = '
 
 
 def autocorrelation_figure(correlation, bound: float, names: Sequence[str], title: str = ''):
-    """Each output's normalized innovation autocorrelation over the lags, with +-bound."""
+    """Plot each output's normalized innovation autocorrelation, with +-bound."""
     plt = _pyplot()
     count = len(names)
     figure, axes = plt.subplots(1, count, figsize=(11, 3), squeeze=False)
@@ -236,7 +236,7 @@ def autocorrelation_figure(correlation, bound: float, names: Sequence[str], titl
 
 
 def singular_values_figure(values, order: int):
-    """Singular values of the subspace step, on a log scale, the chosen order marked."""
+    """Plot the singular values of the subspace step (log scale), the order marked."""
     plt = _pyplot()
     figure, axis = plt.subplots(1, 1, figsize=(8, 3))
     index = np.arange(1, len(values) + 1)
@@ -251,7 +251,7 @@ def singular_values_figure(values, order: int):
 
 
 def fit_figure(times, measured, simulated, names: Sequence[str], fits, title: str = ''):
-    """Measured against simulated output on the held-out data, with the fit of each."""
+    """Plot measured against simulated output on the held-out data, with each fit."""
     plt = _pyplot()
     count = len(names)
     figure, axes = plt.subplots(count, 1, figsize=(11, 2.6 * count), squeeze=False)

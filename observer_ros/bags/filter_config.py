@@ -84,15 +84,17 @@ class KalmanSetup:
 
     @property
     def model(self):
-        """The model (:class:`~observer_ros.core.model.StateSpaceModel`)."""
+        """Return the :class:`~observer_ros.core.model.StateSpaceModel`."""
         return self.system.model
 
     @property
     def state_names(self) -> list:
+        """Return the state names."""
         return list(self.system.model.state_names)
 
     @property
     def output_names(self) -> list:
+        """Return the output names."""
         return list(self.system.model.output_names)
 
     @property

@@ -44,7 +44,7 @@ from observer_ros.core.rules import in_sequence
 from observer_ros.core.tuning.als import (
     AlsResult, autocovariance_least_squares, NoiseStructure, SampledFilter)
 from observer_ros.core.tuning.innovations import (
-    decay_samples, InnovationStatistics, nis_summary, NisSummary, whiteness, Whiteness)
+    decay_samples, InnovationStatistics, nis_summary, NisSummary, Whiteness, whiteness)
 from observer_ros.core.units import NANOSECONDS
 
 #: Default burn-in: samples until ``||(Ad - L C)^k||`` falls to this.
@@ -192,7 +192,7 @@ def common_period(runs: Sequence[BagRun], setup: KalmanSetup) -> int:
 
 
 def default_lags(sampled: SampledFilter) -> int:
-    """Lags until the prediction error's transition falls to :data:`LAG_DECAY`, bounded."""
+    """Return the lags until the prediction error's transition falls to :data:`LAG_DECAY`."""
     low, high = LAG_RANGE
     low = max(low, sampled.c.shape[1] + 2)
     return int(min(max(decay_samples(sampled.error_dynamics, LAG_DECAY, 10 * high), low),
@@ -200,7 +200,7 @@ def default_lags(sampled: SampledFilter) -> int:
 
 
 def default_burn_in(sampled: SampledFilter) -> int:
-    """Samples until the start-up transient falls to :data:`BURN_IN_DECAY` of itself."""
+    """Return the samples the start-up transient takes to fall to :data:`BURN_IN_DECAY`."""
     return decay_samples(sampled.error_dynamics, BURN_IN_DECAY)
 
 
@@ -279,10 +279,12 @@ class TuningRun:
 
     @property
     def tuned(self) -> KalmanSetup:
+        """Return the tuned filter's setup."""
         return self.setups[-1]
 
     @property
     def final(self) -> AlsResult:
+        """Return the last ALS estimate."""
         return self.estimates[-1]
 
 

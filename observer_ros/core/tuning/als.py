@@ -92,6 +92,13 @@ class SampledFilter:
         The continuous model's ``A`` when ``Q`` is an intensity (``Qd`` by Van Loan); None
         for a discrete model, whose ``Q`` is ``Qd`` itself.
 
+    Examples
+    --------
+    >>> import numpy as np
+    >>> sampled = SampledFilter(np.array([[0.9]]), np.array([[1.0]]), np.array([[0.5]]), 0.1)
+    >>> sampled.predictor_gain.tolist(), sampled.error_dynamics.round(6).tolist()
+    ([[0.45]], [[0.45]])
+
     """
 
     ad: np.ndarray
@@ -137,6 +144,10 @@ def innovation_autocovariances(sampled: SampledFilter, process_noise, measuremen
         ``R``.
     lags : int
 
+    Returns
+    -------
+    numpy.ndarray, shape (lags, p, p)
+
     Examples
     --------
     An optimal filter leaves white innovations:
@@ -177,7 +188,7 @@ def _lyapunov(abar: np.ndarray, forcing: np.ndarray) -> np.ndarray:
 
 
 def _process_response(sampled: SampledFilter, observability: np.ndarray, q) -> np.ndarray:
-    """The autocovariances ``Q`` alone gives (``R = 0``)."""
+    """Return the autocovariances ``Q`` alone gives (``R = 0``)."""
     if not np.any(q):
         return np.zeros(observability.shape[:2] + (observability.shape[1],))
     p = _lyapunov(sampled.error_dynamics, sampled.sampled_process_noise(q))
@@ -185,7 +196,7 @@ def _process_response(sampled: SampledFilter, observability: np.ndarray, q) -> n
 
 
 def _measurement_response(sampled: SampledFilter, observability: np.ndarray, r) -> np.ndarray:
-    """The autocovariances ``R`` alone gives (``Q = 0``)."""
+    """Return the autocovariances ``R`` alone gives (``Q = 0``)."""
     gain = sampled.predictor_gain
     p = _lyapunov(sampled.error_dynamics, gain @ r @ gain.T)
     response = observability @ p @ sampled.c.T
@@ -209,6 +220,12 @@ class NoiseStructure:
         The values of the entries that are not free (zero where free).
     process, measurement : str
         The structure asked for: ``'diagonal'`` or ``'full'``.
+
+    Examples
+    --------
+    >>> structure = NoiseStructure.build(2, 1, 'diagonal', 'full', {('Q', 0, 0): 0.0})
+    >>> structure.parameters()
+    [('Q', 1, 1), ('R', 0, 0)]
 
     """
 
@@ -247,8 +264,8 @@ class NoiseStructure:
                                   f'{value!r}')
         matrices = {}
         for symbol, size, kind in (('Q', n_states, process), ('R', n_outputs, measurement)):
-            free = np.eye(size, dtype=bool) if kind == 'diagonal' else np.ones((size, size),
-                                                                                dtype=bool)
+            shape = (size, size)
+            free = np.eye(size, dtype=bool) if kind == 'diagonal' else np.ones(shape, dtype=bool)
             matrices[symbol] = (free, np.zeros((size, size)))
         for key, value in (known or {}).items():
             symbol, row, column = key
@@ -301,6 +318,18 @@ class AlsResult:
     method : str
         ``'least squares'`` (already PSD) or ``'semidefinite least squares'``.
     lags : int
+
+    Examples
+    --------
+    See :func:`autocovariance_least_squares`; ``result.unidentifiable`` is empty when every
+    free entry is fixed by the data:
+
+    >>> import numpy as np
+    >>> sampled = SampledFilter(np.array([[0.9]]), np.array([[1.0]]), np.array([[0.5]]), 0.1)
+    >>> exact = innovation_autocovariances(sampled, [[0.1]], [[0.2]], 4)
+    >>> result = autocovariance_least_squares(exact, sampled, NoiseStructure.build(1, 1))
+    >>> result.unidentifiable, round(float(result.measurement_noise[0, 0]), 9)
+    ((), 0.2)
 
     """
 

@@ -171,11 +171,28 @@ def whiteness(statistics: InnovationStatistics) -> Whiteness:
     """
     Judge the innovations of ``statistics`` for whiteness.
 
+    Parameters
+    ----------
+    statistics : InnovationStatistics
+        At least two lags.
+
+    Returns
+    -------
+    Whiteness
+
     Raises
     ------
     ConfigError
         Naming ``lags`` when fewer than two lags are kept, or ``innovations`` when an output
         never varies.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> statistics = InnovationStatistics(10, 1)
+    >>> statistics.add(np.random.default_rng(0).standard_normal((5000, 1)))
+    >>> whiteness(statistics).white
+    True
 
     """
     if statistics.lags < 2:
@@ -228,10 +245,29 @@ def nis_summary(nis, n_outputs: int, confidence: float = 0.99) -> NisSummary:
     """
     Summarize NIS values (any shape; flattened) against the chi-square band of their mean.
 
+    Parameters
+    ----------
+    nis : array_like
+        ``v^T S^-1 v`` values.
+    n_outputs : int
+        ``p``: each value is chi-square with ``p`` degrees of freedom when consistent.
+    confidence : float
+        Two-sided confidence of the band.
+
+    Returns
+    -------
+    NisSummary
+
     Raises
     ------
     ConfigError
         Naming ``nis`` when there is none or one is not finite.
+
+    Examples
+    --------
+    >>> summary = nis_summary([0.5, 1.5, 1.0, 1.0], 1)
+    >>> summary.mean, summary.consistent
+    (1.0, True)
 
     """
     values = np.asarray(nis, dtype=float).ravel()

@@ -57,7 +57,22 @@ EXCITATION = 1e-9
 
 @dataclass(frozen=True)
 class Record:
-    """One stretch of sampled data: inputs ``(N, m)`` and outputs ``(N, p)``."""
+    """
+    One stretch of sampled data.
+
+    Attributes
+    ----------
+    inputs : numpy.ndarray, shape (N, m)
+    outputs : numpy.ndarray, shape (N, p)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> record = Record(np.zeros((5, 1)), np.ones((5, 2)))
+    >>> record.outputs.shape
+    (5, 2)
+
+    """
 
     inputs: np.ndarray
     outputs: np.ndarray
@@ -79,6 +94,16 @@ class SubspaceModel:
         One per estimation record.
     horizon : int
         Block rows of the Hankel matrices.
+
+    Examples
+    --------
+    See :func:`identify_subspace`, which returns one; :meth:`simulate` runs it:
+
+    >>> import numpy as np
+    >>> model = SubspaceModel(np.array([[0.5]]), np.array([[1.0]]), np.array([[1.0]]),
+    ...                       np.zeros((1, 1)), 0.1, np.ones(1), (), 10)
+    >>> model.simulate(np.ones((3, 1))).ravel().tolist()
+    [0.0, 1.0, 1.5]
 
     """
 
@@ -334,7 +359,16 @@ def estimate_initial_state(model: SubspaceModel, record: Record) -> np.ndarray:
 
 def fit_percent(measured, simulated) -> np.ndarray:
     """
-    ``100 (1 - ||y - y_sim|| / ||y - mean(y)||)`` per output, as MATLAB's ``compare``.
+    Return ``100 (1 - ||y - y_sim|| / ||y - mean(y)||)`` per output, as MATLAB's ``compare``.
+
+    Parameters
+    ----------
+    measured, simulated : array_like, shape (N, p)
+
+    Returns
+    -------
+    numpy.ndarray, shape (p,)
+        Percent; 100 is a perfect fit, 0 no better than the mean, -inf for a constant output.
 
     Examples
     --------
@@ -361,11 +395,30 @@ def to_continuous(a, b, dt: float) -> tuple:
     """
     Return ``(A, B)`` of the continuous model whose zero-order-hold sampling is ``(a, b)``.
 
+    Parameters
+    ----------
+    a, b : array_like, shapes (n, n) and (n, m)
+        The discrete model.
+    dt : float
+        Its sample period.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(A, B)`` continuous.
+
     Raises
     ------
     DesignError
         Naming ``A`` when ``a`` has an eigenvalue on the closed negative real axis (no real
         continuous model samples to it).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> a, b = to_continuous([[np.exp(-0.2)]], [[1 - np.exp(-0.2)]], 0.1)
+    >>> round(float(a[0, 0]), 9), round(float(b[0, 0]), 9)
+    (-2.0, 2.0)
 
     """
     a = np.asarray(a, dtype=float)
