@@ -212,7 +212,7 @@ def test_bad_input_is_a_clear_error_and_nothing_is_written(tmp_path, capsys):
               *written], capsys, 'structure: ', 'Q[x3,x3]', 'leave no trace')
     _refused([str(tmp_path / 'nan'), params, *written, '--known', 'Q[x9,x1]=0'], capsys,
              "--known: 'x9'")
-    _refused([str(tmp_path / 'missing'), params], capsys, 'no such bag or folder')
+    _refused([str(tmp_path / 'missing'), params], capsys, 'not a readable rosbag2 bag')
     luenberger = yaml.safe_load(open(params))
     luenberger['/**']['ros__parameters']['observer'] = {'type': 'full_order',
                                                         'poles': [0.5, 0.6]}

@@ -45,7 +45,7 @@ def expand_bags(paths: Iterable) -> list:
     for given in paths:
         path = Path(given)
         if not path.exists():
-            raise BagError(f'{path}: no such bag or folder')
+            raise BagError(f'{path}: not a readable rosbag2 bag (no such file or directory)')
         if _is_bag(path) or path.is_file():
             found.append(path)
             continue

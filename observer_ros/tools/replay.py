@@ -102,9 +102,8 @@ def _replay_task(task: tuple) -> dict:
     return {'result': result, 'elapsed': elapsed, 'truth': truth, 'rmse': error}
 
 
-def replay_many(options, bags) -> int:
+def replay_many(options, bags, system) -> int:
     """Replay several bags through the task mapper; print one line each, one report."""
-    system = load_system(options.params)
     for option, value in (('--output', options.output), ('--csv', options.csv),
                           ('--reference', options.reference)):
         if value:
@@ -168,16 +167,16 @@ def main(args=None) -> int:
                         help='several bags: replay them on an existing Dask cluster')
     options = parser.parse_args(args)
     try:
+        system = load_system(options.params)
         bags = expand_bags(options.bags)
         if len(bags) > 1:
-            return replay_many(options, bags)
+            return replay_many(options, bags, system)
         options.bag = bags[0]
     except (BagError, ConfigError, DesignError, ValueError, OSError) as e:
         print(f'replay: error: {e}', file=sys.stderr)
         return 2
     try:
         # Everything is checked (parameters, outputs, topics, truth) before anything is written.
-        system = load_system(options.params)
         references = [StateReference.parse(text) for text in options.reference]
         if system.model.n_inputs == 0 and options.u_topic is not None:
             raise ConfigError('--u-topic', 'the model has no inputs (model.B is empty): '
