@@ -107,6 +107,15 @@ class Progress:
             self.stream.flush()
 
 
+def add_worker_arguments(parser, verb: str = 'run') -> None:
+    """Add ``--workers`` and ``--dask`` to a bag tool's argument parser."""
+    parser.add_argument('--workers', type=int, default=None,
+                        help='local worker processes (default: one per bag, at most one per '
+                        'core; 1: in this process)')
+    parser.add_argument('--dask', metavar='SCHEDULER_ADDRESS',
+                        help=f'{verb} the bags on an existing Dask cluster')
+
+
 def default_workers(tasks: int) -> int:
     """One worker per task, at most one per core."""
     return max(1, min(int(tasks), os.cpu_count() or 1))
@@ -248,5 +257,5 @@ def _on_dask(client, function: Callable, tasks: list, progress: Progress) -> lis
     return results
 
 
-__all__ = ['Progress', 'TaskMapper', 'default_workers', 'single_threaded_blas',
-           'task_mapper']
+__all__ = ['Progress', 'TaskMapper', 'add_worker_arguments', 'default_workers',
+           'single_threaded_blas', 'task_mapper']

@@ -29,7 +29,7 @@ import math
 import os
 from pathlib import Path
 import tempfile
-from typing import Optional, Sequence
+from typing import Callable, Optional, Sequence
 
 import numpy as np
 
@@ -50,6 +50,38 @@ img { max-width: 100%; display: block; margin: 0.6em 0; }
 .good { color: #070; } .bad { color: #a00; }
 pre { background: #f6f6f6; padding: 0.6em; overflow-x: auto; }
 """
+
+
+def write_atomically(target: Path, text: str,
+                     check: Optional[Callable[[str], None]] = None) -> Path:
+    """
+    Write ``text`` to ``target`` under a temporary name, ``check(scratch path)``, rename it.
+
+    A failed check (it raises) or write leaves nothing behind; the file gets mode 0644.
+    """
+    directory = target.parent if str(target.parent) else Path('.')
+    handle, scratch = tempfile.mkstemp(prefix=f'.{target.name}.', dir=directory)
+    try:
+        with os.fdopen(handle, 'w', encoding='utf-8') as stream:
+            stream.write(text)
+        if check is not None:
+            check(scratch)
+        os.chmod(scratch, 0o644)
+        os.replace(scratch, target)
+    finally:
+        if os.path.exists(scratch):
+            os.unlink(scratch)
+    return target
+
+
+def _finish(axis, xlabel: str, legend: str = 'upper right') -> None:
+    axis.set_xlabel(xlabel)
+    axis.legend(loc=legend)
+    axis.grid(True)
+
+
+def _titled(figure, title: str):
+    return _titled(figure, title)
 
 
 def _pyplot():
@@ -123,16 +155,7 @@ class HtmlReport:
         """Write the page to ``path`` under a temporary name renamed into place."""
         target = Path(path)
         target.parent.mkdir(parents=True, exist_ok=True)
-        handle, scratch = tempfile.mkstemp(prefix=f'.{target.name}.', dir=target.parent)
-        try:
-            with os.fdopen(handle, 'w', encoding='utf-8') as stream:
-                stream.write(self.html())
-            os.chmod(scratch, 0o644)
-            os.replace(scratch, target)
-        finally:
-            if os.path.exists(scratch):
-                os.unlink(scratch)
-        return target
+        return write_atomically(target, self.html())
 
 
 def _seconds(stamps_ns, origin_ns: int) -> np.ndarray:
@@ -157,15 +180,10 @@ def states_figure(stamps_ns, estimates, names: Sequence[str], truth_stamps_ns=No
             axis.plot(truth_times, truth_values[:, index], 'b', linewidth=1.5,
                       label=f'{name} reference')
         axis.plot(times, values[:, index], 'r--', linewidth=1, label=f'{name} estimate')
-        axis.set_xlabel('time [s]')
-        axis.legend(loc='best')
-        axis.grid(True)
+        _finish(axis, 'time [s]', 'best')
     for index in range(count, rows * columns):
         axes[index // columns][index % columns].axis('off')
-    if title:
-        figure.suptitle(title)
-    figure.tight_layout()
-    return figure
+    return _titled(figure, title)
 
 
 def innovations_figure(stamps_ns, innovations, covariance, names: Sequence[str],
@@ -183,13 +201,8 @@ def innovations_figure(stamps_ns, innovations, covariance, names: Sequence[str],
         axis.axhline(2 * sigma[index], color='r', linestyle='--',
                      label=f'+-2 sigma ({inside:.1%} inside; 95.4% expected)')
         axis.axhline(-2 * sigma[index], color='r', linestyle='--')
-        axis.set_xlabel('time [s]')
-        axis.legend(loc='upper right')
-        axis.grid(True)
-    if title:
-        figure.suptitle(title)
-    figure.tight_layout()
-    return figure
+        _finish(axis, 'time [s]')
+    return _titled(figure, title)
 
 
 def nis_figure(stamps_ns, nis, n_outputs: int, window: int = 100, title: str = ''):
@@ -205,9 +218,7 @@ def nis_figure(stamps_ns, nis, n_outputs: int, window: int = 100, title: str = '
     axis.axhspan(low, high, color='g', alpha=0.15, label=f'99% chi-square band ({low:.3g} .. '
                  f'{high:.3g})')
     axis.axhline(n_outputs, color='g', linestyle=':', label=f'expected {n_outputs}')
-    axis.set_xlabel('time [s]')
-    axis.legend(loc='upper right')
-    axis.grid(True)
+    _finish(axis, 'time [s]')
     if title:
         axis.set_title(title)
     figure.tight_layout()
@@ -225,14 +236,9 @@ def autocorrelation_figure(correlation, bound: float, names: Sequence[str], titl
         axis.stem(lags[1:], correlation[1:, index, index], basefmt='k-')
         axis.axhline(bound, color='r', linestyle='--', label=f'+-{bound:.3g} (white, 95%)')
         axis.axhline(-bound, color='r', linestyle='--')
-        axis.set_xlabel('lag [samples]')
         axis.set_title(f'autocorrelation of {name}')
-        axis.legend(loc='upper right')
-        axis.grid(True)
-    if title:
-        figure.suptitle(title)
-    figure.tight_layout()
-    return figure
+        _finish(axis, 'lag [samples]')
+    return _titled(figure, title)
 
 
 def singular_values_figure(values, order: int):
@@ -261,17 +267,12 @@ def fit_figure(times, measured, simulated, names: Sequence[str], fits, title: st
         axis.plot(times, measured[:, index], 'b', linewidth=1, label=f'{name} measured')
         axis.plot(times, simulated[:, index], 'r--', linewidth=1,
                   label=f'{name} simulated (fit {fits[index]:.1f}%)')
-        axis.set_xlabel('time [s]')
-        axis.legend(loc='upper right')
-        axis.grid(True)
-    if title:
-        figure.suptitle(title)
-    figure.tight_layout()
-    return figure
+        _finish(axis, 'time [s]')
+    return _titled(figure, title)
 
 
 __all__ = ['HtmlReport', 'autocorrelation_figure', 'fit_figure', 'innovations_figure',
-           'nis_figure', 'singular_values_figure', 'states_figure', 'thinned']
+           'nis_figure', 'singular_values_figure', 'states_figure', 'thinned', 'write_atomically']
 
 
 def filter_run_section(report: HtmlReport, heading: str, stamps_ns, estimates, innovations,

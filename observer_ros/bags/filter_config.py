@@ -23,14 +23,13 @@ in the tuning tools reads parameter names or the :class:`~observer_ros.config.Sy
 """
 
 from dataclasses import dataclass
-import os
 from pathlib import Path
-import tempfile
 from typing import Optional, Sequence
 
 import numpy as np
 import yaml
 
+from observer_ros.app.run_report import write_atomically
 from observer_ros.config import (
     flatten_parameters, load_parameter_file, System, validate_parameters)
 from observer_ros.core.errors import ConfigError
@@ -158,18 +157,8 @@ class KalmanSetup:
 
 def write_validated(target: Path, text: str) -> Path:
     """Write a parameter file under a temporary name, validate it, rename it into place."""
-    directory = target.parent if str(target.parent) else Path('.')
-    handle, scratch = tempfile.mkstemp(prefix=f'.{target.name}.', dir=directory)
-    try:
-        with os.fdopen(handle, 'w', encoding='utf-8') as stream:
-            stream.write(text)
-        validate_parameters(load_parameter_file(scratch), strict=True)
-        os.chmod(scratch, 0o644)
-        os.replace(scratch, target)
-    finally:
-        if os.path.exists(scratch):
-            os.unlink(scratch)
-    return target
+    return write_atomically(target, text, lambda scratch: validate_parameters(
+        load_parameter_file(scratch), strict=True))
 
 
 def _flat(matrix, diagonal: bool) -> list:

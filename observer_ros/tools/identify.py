@@ -33,16 +33,15 @@ import sys
 
 import numpy as np
 
-from observer_ros.app.parallel import single_threaded_blas, task_mapper
+from observer_ros.app.parallel import add_worker_arguments, single_threaded_blas, task_mapper
 from observer_ros.app.run_report import fit_figure, HtmlReport, singular_values_figure
-from observer_ros.bags.collection import expand_bags
 from observer_ros.bags.filter_config import model_document, write_validated
 from observer_ros.bags.identification import HOLDOUT, Identification, identify_bags, SignalSpec
 from observer_ros.bags.storage import BagError
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.tuning.subspace import order_advice
 from observer_ros.signals import stops_on_signal
-from observer_ros.tools.outputs import check_file, check_report_directory
+from observer_ros.tools.outputs import checked_bags
 
 REPORT_NAME = 'identify'
 
@@ -152,11 +151,7 @@ def main(args=None) -> int:
                         help='block rows of the Hankel matrices (default max(2 n, 20))')
     parser.add_argument('-o', '--output', metavar='FILE', help='write the model parameter file')
     parser.add_argument('--report', metavar='DIR', help='write DIR/identify.html')
-    parser.add_argument('--workers', type=int, default=None,
-                        help='local worker processes (default: one per bag, at most one per '
-                        'core)')
-    parser.add_argument('--dask', metavar='SCHEDULER_ADDRESS',
-                        help='read the bags on an existing Dask cluster')
+    add_worker_arguments(parser, 'read')
     options = parser.parse_args(args)
     with single_threaded_blas():
         return _run(options)
@@ -164,11 +159,7 @@ def main(args=None) -> int:
 
 def _run(options) -> int:
     try:
-        if options.output:
-            check_file('--output', options.output)
-        if options.report:
-            check_report_directory(options.report)
-        bags = expand_bags(options.bags)
+        bags = checked_bags(options)
         inputs = [SignalSpec.parse(text) for text in options.inputs]
         outputs = [SignalSpec.parse(text) for text in options.outputs]
         with task_mapper(options.workers, options.dask) as mapper:

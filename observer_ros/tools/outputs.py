@@ -14,20 +14,11 @@
 
 """Checks that a tool's output paths can be written, made before anything is."""
 
-import os
 from pathlib import Path
 
-from observer_ros.bags.replay_outputs import missing_parents
+from observer_ros.bags.collection import expand_bags
+from observer_ros.bags.replay_outputs import check_writable_parent
 from observer_ros.bags.storage import BagError
-
-
-def _writable_parent(option: str, path: Path) -> None:
-    missing = missing_parents(path)
-    existing = (missing[-1] if missing else path.absolute()).parent
-    if not existing.is_dir():
-        raise BagError(f'{option}: {existing} is not a directory')
-    if not os.access(existing, os.W_OK | os.X_OK):
-        raise BagError(f'{option}: cannot write in {existing}')
 
 
 def check_file(option: str, path) -> None:
@@ -35,7 +26,7 @@ def check_file(option: str, path) -> None:
     path = Path(path)
     if path.is_dir():
         raise BagError(f'{option}: {path} is a directory; give a file name')
-    _writable_parent(option, path)
+    check_writable_parent(option, path)
 
 
 def check_report_directory(path, option: str = '--report') -> None:
@@ -43,7 +34,16 @@ def check_report_directory(path, option: str = '--report') -> None:
     path = Path(path)
     if path.exists() and not path.is_dir():
         raise BagError(f'{option}: {path} is a file; give a directory')
-    _writable_parent(option, path)
+    check_writable_parent(option, path)
 
 
-__all__ = ['check_file', 'check_report_directory']
+def checked_bags(options) -> list:
+    """Check ``options.output`` (a file) and ``options.report`` (a directory); expand the bags."""
+    if options.output:
+        check_file('--output', options.output)
+    if options.report:
+        check_report_directory(options.report)
+    return expand_bags(options.bags)
+
+
+__all__ = ['check_file', 'check_report_directory', 'checked_bags']

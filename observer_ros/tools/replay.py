@@ -38,7 +38,7 @@ import time
 
 import numpy as np
 
-from observer_ros.app.parallel import task_mapper
+from observer_ros.app.parallel import add_worker_arguments, task_mapper
 from observer_ros.app.plots import write_run_report
 from observer_ros.app.run_report import filter_run_section, HtmlReport
 from observer_ros.bags.collection import expand_bags
@@ -160,11 +160,7 @@ def main(args=None) -> int:
     parser.add_argument('--use-log-time', action='store_true',
                         help='stamp y and u (and the truth) with their log times instead of '
                         'their header stamps (streams stamped in different time bases)')
-    parser.add_argument('--workers', type=int, default=None,
-                        help='several bags: local worker processes (default: one per bag, at '
-                        'most one per core)')
-    parser.add_argument('--dask', metavar='SCHEDULER_ADDRESS',
-                        help='several bags: replay them on an existing Dask cluster')
+    add_worker_arguments(parser, 'replay')
     options = parser.parse_args(args)
     try:
         system = load_system(options.params)

@@ -33,16 +33,15 @@ import sys
 
 import numpy as np
 
-from observer_ros.app.parallel import single_threaded_blas, task_mapper
+from observer_ros.app.parallel import add_worker_arguments, single_threaded_blas, task_mapper
 from observer_ros.app.run_report import filter_run_section, HtmlReport
-from observer_ros.bags.collection import expand_bags
 from observer_ros.bags.filter_config import load_kalman_setup
 from observer_ros.bags.storage import BagError
 from observer_ros.bags.tuning import ITERATIONS, normalized_squares, tune_noises, TuningRun
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.tuning.als import NoiseStructure, STRUCTURES, WEIGHTINGS
 from observer_ros.signals import stops_on_signal
-from observer_ros.tools.outputs import check_file, check_report_directory
+from observer_ros.tools.outputs import checked_bags
 
 REPORT_NAME = 'tune_kalman'
 KNOWN = re.compile(r'^\s*([QR])\[\s*([^,\]]+?)\s*,\s*([^\]]+?)\s*\]\s*=\s*(.+)$')
@@ -206,11 +205,7 @@ def main(args=None) -> int:
     parser.add_argument('--weighting', choices=WEIGHTINGS, default='whitened')
     parser.add_argument('--y-topic', default='y', help='measurement topic in the bags')
     parser.add_argument('--u-topic', default='u', help='input topic in the bags')
-    parser.add_argument('--workers', type=int, default=None,
-                        help='local worker processes (default: one per bag, at most one per '
-                        'core)')
-    parser.add_argument('--dask', metavar='SCHEDULER_ADDRESS',
-                        help='run the bags on an existing Dask cluster')
+    add_worker_arguments(parser, 'run')
     options = parser.parse_args(args)
     with single_threaded_blas():
         return _run(options)
@@ -218,11 +213,7 @@ def main(args=None) -> int:
 
 def _run(options) -> int:
     try:
-        if options.output:
-            check_file('--output', options.output)
-        if options.report:
-            check_report_directory(options.report)
-        bags = expand_bags(options.bags)
+        bags = checked_bags(options)
         setup = load_kalman_setup(options.params)
         known = parse_known(options.known, setup.state_names, setup.output_names)
         structure = NoiseStructure.build(setup.model.n_states, setup.model.n_outputs,
