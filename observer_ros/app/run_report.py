@@ -81,7 +81,10 @@ def _finish(axis, xlabel: str, legend: str = 'upper right') -> None:
 
 
 def _titled(figure, title: str):
-    return _titled(figure, title)
+    if title:
+        figure.suptitle(title)
+    figure.tight_layout()
+    return figure
 
 
 def _pyplot():
