@@ -34,12 +34,14 @@ from observer_ros.config import (
     flatten_parameters, load_parameter_file, System, validate_parameters)
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.flat_matrices import covariance_from_flat
+from observer_ros.core.observers.kalman import NAME as KALMAN_TYPE
+from observer_ros.core.observers.kalman.design import KalmanDesign
 from observer_ros.core.observers.kalman.estimator import KalmanStep
 from observer_ros.core.tuning.als import SampledFilter
 from observer_ros.core.units import NANOSECONDS
 
-#: The observer type whose noises the tools tune.
-KALMAN = 'kalman'
+#: The observer type whose noises the tools tune (its own name, from its package).
+KALMAN = KALMAN_TYPE
 
 #: Parameter names of the two covariances (``observer.<argument>``).
 PROCESS_NOISE, MEASUREMENT_NOISE = 'observer.process_noise', 'observer.measurement_noise'
@@ -205,7 +207,7 @@ def load_kalman_setup(path) -> KalmanSetup:
     """
     parameters = load_parameter_file(str(path))
     system = system_of(parameters)
-    if system.observer_type != KALMAN or system.observer is None:
+    if not isinstance(system.observer, KalmanDesign):
         raise ConfigError('observer.type', f'tune_kalman tunes a Kalman filter: expected '
                           f'observer.type kalman with its noises, got '
                           f'{system.observer_type!r}')
