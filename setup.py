@@ -50,6 +50,8 @@ setup(
             'closed_loop = observer_ros.nodes.closed_loop:main',
             'replay = observer_ros.tools.replay:main',
             'play_bag = observer_ros.nodes.bag_player:main',
+            'tune_kalman = observer_ros.tools.tune_kalman:main',
+            'identify = observer_ros.tools.identify:main',
         ],
         # The observer types, found by observer_ros.core.observers through this group; a
         # separate package adds one in its own setup.py. Each type's priority orders them

@@ -49,6 +49,14 @@ if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
   echo "$want" > "$stamp"
 fi
 export PATH="$VENV/bin:$PATH"
+# The report tests render the HTML reports in headless Chromium (Debian's package): install
+# it where this runs as root with apt-get and it is missing (CI's fresh machines).
+if ! command -v chromium >/dev/null 2>&1 && command -v apt-get >/dev/null 2>&1 \
+    && [ "$(id -u)" = 0 ] && [ -z "${OBSERVER_ROS_NO_BROWSER:-}" ]; then
+  echo "observer_ros: installing chromium for the report tests" >&2
+  (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium \
+    >/dev/null) || echo "observer_ros: could not install chromium" >&2
+fi
 # Keep ROS traffic on this machine.
 export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST}"
 export MPLBACKEND=Agg

@@ -61,3 +61,12 @@ def test_only_keeps_the_other_sections_of_an_existing_report(tmp_path):
     assert re.findall(r'^## (\d)\. ', report, flags=re.MULTILINE) == ['1', '6']
     assert re.findall(r'^\| (\d)\. ', report, flags=re.MULTILINE) == ['1', '6']
     assert 'Kept from an earlier run: sections 1.' in report
+
+
+def test_the_bag_worker_benchmark_runs_and_finds_one_estimate():
+    result = subprocess.run([sys.executable, '-m', 'benchmarks.bag_workers', '--bags', '2',
+                             '--samples', '1000', '--workers', '1'], cwd=REPOSITORY,
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert '| 1 local | ' in result.stdout
+    assert 'tuned Q and R equal across runs: True' in result.stdout

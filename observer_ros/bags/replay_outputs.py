@@ -71,12 +71,17 @@ def check_outputs(bag: Optional[str] = None, csv: Optional[str] = None,
             if first == second or first in second.parents or second in first.parents:
                 raise BagError(f'{option} {path} and {other} {other_path} overlap; give '
                                f'separate paths')
-        missing = missing_parents(path)
-        existing = (missing[-1] if missing else path.absolute()).parent
-        if not existing.is_dir():
-            raise BagError(f'{option}: {existing} is not a directory')
-        if not os.access(existing, os.W_OK | os.X_OK):
-            raise BagError(f'{option}: cannot write in {existing}')
+        check_writable_parent(option, path)
+
+
+def check_writable_parent(option: str, path: Path) -> None:
+    """Refuse ``path`` when it lands in a directory that cannot be created or written."""
+    missing = missing_parents(path)
+    existing = (missing[-1] if missing else path.absolute()).parent
+    if not existing.is_dir():
+        raise BagError(f'{option}: {existing} is not a directory')
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise BagError(f'{option}: cannot write in {existing}')
 
 
 def _write_csv(result: ReplayResult, target: Path) -> None:
@@ -168,5 +173,5 @@ def remove_outputs(written, directories=()) -> None:
             continue
 
 
-__all__ = ['check_outputs', 'made_directories', 'missing_parents', 'remove_outputs',
-           'write_replay']
+__all__ = ['check_outputs', 'check_writable_parent', 'made_directories', 'missing_parents',
+           'remove_outputs', 'write_replay']

@@ -35,7 +35,7 @@ from typing import Iterator, Optional, Sequence, Tuple
 import numpy as np
 
 from observer_ros.bags.mcap import read_mcap_topics
-from observer_ros.ros.cdr import decode, Encoder, MESSAGE_TYPES
+from observer_ros.ros.cdr import decode, DecodeError, Encoder, MESSAGE_TYPES, parse_layout
 
 STORAGES = ('mcap', 'sqlite3')
 
@@ -389,6 +389,56 @@ def read_topics(path, requests: Sequence[TopicRequest]) -> list:
         reader.close()
     return [_decoded(path, request, by_topic[request.topic], *collected[request.topic])
             for request in requests]
+
+
+def topic_layout(path, topic: str, field: str = 'position') -> TopicRequest:
+    """
+    Return what to read for a vector topic, found from the bag: its kind and entry names.
+
+    A JointState topic gives the joint names of its first message, a Float64MultiArray the
+    count of its first vector (named ``<topic>1 ..``).
+
+    Raises
+    ------
+    BagError
+        Unreadable bag, no such topic (the topics present listed), another message type,
+        or a first message that cannot be decoded.
+
+    """
+    wanted = absolute_topic(topic)
+    kinds = {value: key for key, value in MESSAGE_TYPES.items()}
+    reader = _reader(path)
+    try:
+        connections = [c for c in reader.connections if absolute_topic(c.topic) == wanted]
+        if not connections:
+            raise BagError(f'{path}: no topic {wanted}; the bag has {_listing(reader)}')
+        types = {message_type(c.msgtype) for c in connections}
+        if len(types) != 1 or next(iter(types)) not in kinds:
+            raise BagError(f'{path}: topic {wanted} holds {", ".join(sorted(types))}; expected '
+                           f'one of {", ".join(sorted(kinds))}')
+        kind = kinds[next(iter(types))]
+        stored = [c for c in _stored_connections(reader) if absolute_topic(c.topic) == wanted]
+        first = next(iter(reader.messages(connections=stored)), None)
+    except BagError:
+        raise
+    except Exception as e:
+        raise BagError(f'{path}: cannot read topic {wanted} ({e})') from e
+    finally:
+        reader.close()
+    if first is None:
+        raise BagError(f'{path}: topic {wanted} has no messages')
+    try:
+        layout = parse_layout(first[2], kind)
+    except DecodeError as e:
+        raise BagError(f'{path}: topic {wanted}: first message: {e}') from e
+    if kind == 'joint_state':
+        if field not in layout.arrays or layout.arrays[field][1] != len(layout.names):
+            raise BagError(f'{path}: topic {wanted}: the first message has no {field} per '
+                           f'joint ({list(layout.names)})')
+        return TopicRequest(wanted, kind, field, tuple(layout.names))
+    count = layout.arrays['data'][1]
+    base = wanted.strip('/').replace('/', '_')
+    return TopicRequest(wanted, kind, field, tuple(f'{base}{i + 1}' for i in range(count)))
 
 
 def _decoded(path, request: TopicRequest, connections, log_times: list,

@@ -74,6 +74,12 @@ Events
 Simulation and evaluation
     :class:`PlantSimulator`, :func:`error_report`, :class:`ErrorReport`,
     :func:`format_error_table`, :func:`settling_time`, :func:`decay_rate`.
+Tuning from recordings (:mod:`observer_ros.core.tuning`)
+    :func:`autocovariance_least_squares` (``Q`` and ``R`` from innovations),
+    :class:`NoiseStructure`, :class:`SampledFilter`, :class:`AlsResult`,
+    :func:`innovation_autocovariances`, :class:`InnovationStatistics`, :func:`whiteness`,
+    :func:`nis_summary`; :func:`identify_subspace` (PO-MOESP), :class:`Record`,
+    :class:`SubspaceModel`, :func:`fit_percent`, :func:`to_continuous`.
 Errors
     :class:`ObserverRosError`, :class:`ConfigError`, :class:`DesignError`,
     :class:`StampError`.
@@ -157,6 +163,13 @@ _EXPORTS = {
                                        'augmented_noise'),
     'observer_ros.core.evaluation': (
         'ErrorReport', 'error_report', 'format_error_table', 'settling_time', 'decay_rate'),
+    'observer_ros.core.tuning.als': (
+        'AlsResult', 'NoiseStructure', 'SampledFilter', 'autocovariance_least_squares',
+        'innovation_autocovariances'),
+    'observer_ros.core.tuning.innovations': ('InnovationStatistics', 'nis_summary',
+                                             'whiteness'),
+    'observer_ros.core.tuning.subspace': (
+        'Record', 'SubspaceModel', 'fit_percent', 'identify_subspace', 'to_continuous'),
 }
 
 _MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}

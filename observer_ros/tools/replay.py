@@ -15,9 +15,14 @@
 """
 ``replay``: run the configured observer over a recorded bag, offline, and report.
 
-``replay BAG PARAMS [--output BAG] [--csv FILE] [--report DIR]`` reads ``y`` and ``u``
+``replay BAG... PARAMS [--output BAG] [--csv FILE] [--report DIR]`` reads ``y`` and ``u``
 with their recorded stamps, writes ``x_hat`` and the innovation, and with ``--report``
-compares them with ``x_true`` (or ``--truth TOPIC``): the per-state error table and a PNG.
+compares them with ``x_true`` (or ``--truth TOPIC``): the per-state error table, a PNG and
+``DIR/replay.html`` (estimates against the reference, innovations with their +-2 sigma band,
+NIS with its chi-square band, innovation autocorrelation with its whiteness bounds).
+Several bags (or folders of bags) are replayed in worker processes (``--workers``) or on a
+Dask cluster (``--dask``), each printed and reported on its own; ``--output`` and ``--csv``
+take one bag.
 ``--reference STATE=TOPIC:FIELD:JOINT`` (repeatable) prints the RMSE of one state against a
 recorded JointState field, e.g. the velocity a robot's ``/joint_states`` carries. A model
 without inputs (``model.B`` empty) reads no ``u`` topic.
@@ -31,16 +36,99 @@ from pathlib import Path
 import sys
 import time
 
+import numpy as np
+
+from observer_ros.app.parallel import add_worker_arguments, task_mapper
 from observer_ros.app.plots import write_run_report
+from observer_ros.app.run_report import filter_run_section, HtmlReport
+from observer_ros.bags.collection import expand_bags
 from observer_ros.bags.replay import load_system, reference_rmse, replay_bag, StateReference
 from observer_ros.bags.replay_outputs import (
     check_outputs, made_directories, remove_outputs, write_replay)
 from observer_ros.bags.storage import BagError, STORAGES
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.evaluation import align, settling_time
+from observer_ros.core.tuning.innovations import InnovationStatistics, whiteness
 from observer_ros.signals import stops_on_signal
 
 REPORT_NAME = 'replay'
+
+#: Lags of the innovation autocorrelation in the report.
+REPORT_LAGS = 30
+
+
+def report_section(report: HtmlReport, result, truth=None) -> None:
+    """Add one replayed bag to the HTML report (:func:`filter_run_section`)."""
+    model = result.system.model
+    correlation, bound = None, 0.0
+    if len(result.innovations) > REPORT_LAGS:
+        statistics = InnovationStatistics(REPORT_LAGS, model.n_outputs)
+        statistics.add(result.innovations)
+        try:
+            judged = whiteness(statistics)
+            correlation, bound = judged.correlation, judged.bound
+        except ConfigError:
+            pass  # an output that never varies: no autocorrelation to show
+    covariance = (None if result.innovation_covariances is None
+                  else result.innovation_covariances[-1])
+    filter_run_section(report, str(result.bag), result.stamps_ns, result.estimates,
+                       result.innovations, covariance, result.nis, model.state_names,
+                       model.output_names, correlation, bound,
+                       None if truth is None else truth.stamps_ns,
+                       None if truth is None else truth.values)
+
+
+def _truth_or_none(result, topic: str):
+    try:
+        return result.truth(topic)
+    except BagError:
+        return None
+
+
+def _replay_task(task: tuple) -> dict:
+    """Replay one of several bags (a worker's task); return what is printed and reported."""
+    bag, params, y_topic, u_topic, use_log_time, truth_topic = task
+    started = time.perf_counter()
+    result = replay_bag(bag, params, y_topic, u_topic, use_log_time)
+    elapsed = time.perf_counter() - started
+    truth = _truth_or_none(result, truth_topic) if truth_topic else None
+    error = None
+    if truth is not None:
+        _, reference, estimate = align(truth.stamps_ns, truth.values, result.stamps_ns,
+                                       result.estimates)
+        if len(reference):
+            error = float(np.sqrt(np.mean(np.sum((reference - estimate) ** 2, axis=1))))
+    result.system = None  # the worker's System stays there: the arrays go back
+    return {'result': result, 'elapsed': elapsed, 'truth': truth, 'rmse': error}
+
+
+def replay_many(options, bags, system) -> int:
+    """Replay several bags through the task mapper; print one line each, one report."""
+    for option, value in (('--output', options.output), ('--csv', options.csv),
+                          ('--reference', options.reference)):
+        if value:
+            raise ConfigError(option, f'{len(bags)} bags given: {option} takes one bag')
+    if options.report:
+        check_outputs(None, None, options.report)
+    tasks = [(bag, options.params, options.y_topic, options.u_topic or 'u',
+              options.use_log_time, options.truth if options.report else None) for bag in bags]
+    with task_mapper(options.workers, options.dask) as mapper:
+        done = mapper(_replay_task, tasks, 'replay')
+    report = HtmlReport(f'replay: {len(bags)} bags, {system.observer.design.kind} observer')
+    for item in done:
+        result = item['result']
+        result.system = system
+        counters = ', '.join(f'{key} {value}' for key, value in sorted(result.counters.items()))
+        reference = ('' if item['rmse'] is None else
+                     f'; RMSE against {options.truth} {item["rmse"]:.6g}')
+        print(f'{result.bag}: {len(result.outputs.values)} measurements into '
+              f'{len(result.stamps_ns)} estimates in {item["elapsed"]:.3f} s; {counters}'
+              f'{reference}')
+        if options.report:
+            report_section(report, result, item['truth'])
+    if options.report:
+        print(f'report: {report.write(Path(options.report) / f"{REPORT_NAME}.html")}')
+    return 0
 
 
 @stops_on_signal('replay')
@@ -48,7 +136,9 @@ def main(args=None) -> int:
     """Entry point of ``replay`` (also ``ros2 run observer_ros replay``)."""
     parser = argparse.ArgumentParser(
         prog='replay', description='Run the configured observer over a rosbag2 bag offline.')
-    parser.add_argument('bag', help='rosbag2 bag directory (MCAP or sqlite3), or a storage file')
+    parser.add_argument('bags', nargs='+', metavar='BAG',
+                        help='rosbag2 bag directory (MCAP or sqlite3), a storage file, or a '
+                        'folder of bags (several: one line and one report section each)')
     parser.add_argument('params', help='parameter file (/**: ros__parameters:)')
     parser.add_argument('--y-topic', default='y', help='measurement topic in the bag')
     parser.add_argument('--u-topic', default=None,
@@ -70,10 +160,19 @@ def main(args=None) -> int:
     parser.add_argument('--use-log-time', action='store_true',
                         help='stamp y and u (and the truth) with their log times instead of '
                         'their header stamps (streams stamped in different time bases)')
+    add_worker_arguments(parser, 'replay')
     options = parser.parse_args(args)
     try:
-        # Everything is checked (parameters, outputs, topics, truth) before anything is written.
         system = load_system(options.params)
+        bags = expand_bags(options.bags)
+        if len(bags) > 1:
+            return replay_many(options, bags, system)
+        options.bag = bags[0]
+    except (BagError, ConfigError, DesignError, ValueError, OSError) as e:
+        print(f'replay: error: {e}', file=sys.stderr)
+        return 2
+    try:
+        # Everything is checked (parameters, outputs, topics, truth) before anything is written.
         references = [StateReference.parse(text) for text in options.reference]
         if system.model.n_inputs == 0 and options.u_topic is not None:
             raise ConfigError('--u-topic', 'the model has no inputs (model.B is empty): '
@@ -120,6 +219,12 @@ def main(args=None) -> int:
                 options.report, REPORT_NAME, result.system, truth.stamps_ns, truth.values,
                 result.stamps_ns, result.estimates,
                 title=f'{result.system.observer.design.kind} observer, {options.bag}'))
+            kind = result.system.observer.design.kind
+            page = HtmlReport(f'replay: {kind} observer, {options.bag}')
+            report_section(page, result, truth)
+            html_path = page.write(Path(options.report) / f'{REPORT_NAME}.html')
+            written.append(html_path)
+            print(f'report: {html_path}')
     except (BagError, ConfigError, DesignError, ValueError, OSError) as e:
         remove_outputs(written, made)
         print(f'replay: error: {e}', file=sys.stderr)

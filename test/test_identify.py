@@ -1,0 +1,101 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""``identify`` on a simulated third-order bag at 30 dB: poles, fit, order choice, bad input."""
+
+import numpy as np
+import pytest
+
+from observer_ros.bags.storage import TopicToWrite, write_bag
+from observer_ros.config import load_parameter_file, validate_parameters
+from observer_ros.core.discretize import zero_order_hold
+from observer_ros.tools.identify import main
+from tuning_support import START_NS
+
+#: The plant: poles -1.58 and -0.91 +- 2.34j, sampled at 20 Hz, position measured.
+A = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-10.0, -9.2, -3.4]])
+B = np.array([[0.0], [0.0], [10.0]])
+PERIOD, SAMPLES, SNR_DB = 0.05, 20_000, 30.0
+
+
+def write_third_order(path, samples=SAMPLES, seed=1, inputs=None, nan_at=None):
+    """Record ``u`` (white) and ``y`` (position plus noise at 30 dB) as JointStates."""
+    ad, bd = zero_order_hold(A, B, PERIOD)
+    rng = np.random.default_rng(seed)
+    u = rng.standard_normal((samples, 1)) if inputs is None else inputs
+    x, y = np.zeros(3), np.empty((samples, 1))
+    for k in range(samples):
+        y[k] = x[0]
+        x = ad @ x + bd @ u[k]
+    y += rng.standard_normal(y.shape) * y.std() * 10 ** (-SNR_DB / 20)
+    if nan_at is not None:
+        y[nan_at] = np.nan
+    stamps = START_NS + round(PERIOD * 1e9) * np.arange(samples, dtype=np.int64)
+    write_bag(path, [TopicToWrite('/u', 'joint_state', 'position', ['force'], stamps,
+                                  stamps - 1000, u),
+                     TopicToWrite('/y', 'joint_state', 'position', ['position'], stamps,
+                                  stamps, y)])
+
+
+@pytest.fixture(scope='module')
+def third_order_bag(tmp_path_factory):
+    path = tmp_path_factory.mktemp('identify') / 'run'
+    write_third_order(path)
+    return path
+
+
+def test_a_third_order_plant_at_30_db(third_order_bag, tmp_path, capsys):
+    model = tmp_path / 'model.yaml'
+    assert main([str(third_order_bag), '--order', '3', '--continuous', '-o', str(model)]) == 0
+    out = capsys.readouterr().out
+    flat = load_parameter_file(str(model))
+    system = validate_parameters(flat, strict=True)  # ready for the observer
+    assert system.observer.kind.name == 'kalman' and system.model.dt == 0.0
+    found = np.sort_complex(np.linalg.eigvals(system.model.a))
+    truth = np.sort_complex(np.linalg.eigvals(A))
+    errors = np.abs(found - truth) / np.abs(truth)
+    fit = float(out.split('fit on the held-out data: position ')[1].split('%')[0])
+    print(f'poles {found.round(4).tolist()} (true {truth.round(4).tolist()}), largest error '
+          f'{errors.max():.3%}; fit {fit:.2f}%')
+    assert errors.max() < 0.01 and fit > 90.0
+    assert 'suggested order 3' in out and 'too' not in out
+    assert flat['topics.y.type'] == 'joint_state' and flat['model.output_names'] == ['position']
+
+
+@pytest.mark.parametrize('order, verdict', [(2, 'too low'), (4, 'too high')])
+def test_a_wrong_order_shows_in_the_singular_values(third_order_bag, order, verdict, capsys):
+    assert main([str(third_order_bag), '--order', str(order)]) == 0
+    out = capsys.readouterr().out
+    line = next(text for text in out.splitlines() if text.startswith('largest gap'))
+    print(line)
+    assert 'suggested order 3' in line and verdict in line
+    assert out.splitlines()[1].startswith('singular values (horizon 20): ')
+
+
+def test_bad_input_is_a_clear_error_and_nothing_is_written(tmp_path, capsys):
+    output, report = tmp_path / 'out' / 'model.yaml', tmp_path / 'report'
+    written = ['--order', '3', '-o', str(output), '--report', str(report)]
+    write_third_order(tmp_path / 'constant', 2000, inputs=np.full((2000, 1), 0.5))
+    write_third_order(tmp_path / 'short', 40)
+    write_third_order(tmp_path / 'nan', 2000, nan_at=500)
+    cases = [('constant', 'inputs: no excitation: force is constant'),
+             ('short', 'horizon: too short'),
+             ('nan', 'topic /y: 1 of 2000 samples are not finite')]
+    for bag, expected in cases:
+        assert main([str(tmp_path / bag), *written]) == 2
+        error = capsys.readouterr().err
+        assert expected in error, error
+    assert main([str(tmp_path / 'nan'), '--order', '3', '--inputs', '/u:effort']) == 2
+    assert 'no effort per joint' in capsys.readouterr().err
+    assert not output.parent.exists() and not report.exists()
