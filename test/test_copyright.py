@@ -21,7 +21,7 @@ LICENSE_LINE = 'Licensed under the Apache License, Version 2.0'
 
 
 def _sources():
-    for folder in ('observer_ros', 'test', 'launch', 'benchmarks', 'scripts'):
+    for folder in ('observer_ros', 'test', 'launch', 'benchmarks', 'scripts', 'doc'):
         root = REPOSITORY / folder
         if root.exists():
             yield from sorted(root.rglob('*.py'))

@@ -201,3 +201,18 @@ def test_identification_refuses_constant_inputs_short_data_and_nan():
     with pytest.raises(DesignError, match='A: discrete poles -0.5'):
         to_continuous([[-0.5]], [[1.0]], 0.1)
     assert fit_percent([[0.0], [2.0]], [[1.0], [1.0]]).tolist() == [0.0]
+
+
+def test_an_unstable_identified_model_is_refused_with_the_reason_not_an_svd_failure():
+    # A plant whose state doubles every 70 samples: its model was returned with B and D fitted
+    # on a simulation growing as 1.01^k; at |z| = 1.7 (closed-loop data) the fit overflowed
+    # and numpy's SVD failed ('SVD did not converge').
+    rng = np.random.default_rng(5)
+    u = rng.standard_normal((3000, 1))
+    x, y = 0.0, []
+    for k in range(3000):
+        y.append([x + 0.01 * rng.standard_normal()])
+        x = 1.01 * x + u[k, 0]
+    with pytest.raises(DesignError, match=r'order: the identified model of order 1 is unstable '
+                                          r'\(a pole at \|z\| = 1\.01'):
+        identify_subspace([Record(u, np.array(y))], 1, 0.1)

@@ -19,7 +19,7 @@ import sys
 
 from conftest import REPOSITORY
 
-LINTED = ['observer_ros', 'test', 'launch', 'setup.py', 'benchmarks']
+LINTED = ['observer_ros', 'test', 'launch', 'setup.py', 'benchmarks', 'doc']
 
 
 def test_flake8():

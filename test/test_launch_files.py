@@ -15,7 +15,8 @@
 """
 The launch files, read as source where ``launch`` is not installed.
 
-Every argument is documented in README, every executable is a console script of the
+Every argument is documented (doc/lifecycle_and_launch.md), every executable is a console
+script of the
 package, every remapped name is a topic of the node it remaps, the managed nodes get the
 ``autostart`` parameter; with ``launch`` installed (a Jazzy install),
 ``generate_launch_description()`` runs and declares the same arguments.
@@ -31,7 +32,7 @@ from observer_ros.config import FEEDBACK, OBSERVER, PARAMETER_SPECS, PLANT, TOPI
 from observer_ros.ros.executors import EXECUTORS
 
 LAUNCH_FILES = sorted((REPOSITORY / 'launch').glob('*.launch.py'))
-README = (REPOSITORY / 'README.md').read_text(encoding='utf-8')
+LAUNCH_PAGE = (REPOSITORY / 'doc' / 'lifecycle_and_launch.md').read_text(encoding='utf-8')
 
 #: The role (parameter and topic set) of each node executable.
 ROLES = {'plant_simulator': PLANT, 'observer': OBSERVER, 'observer_lifecycle': OBSERVER,
@@ -96,13 +97,13 @@ def test_both_launch_files_exist_and_setup_installs_them():
 
 
 @pytest.mark.parametrize('source', SOURCES)
-def test_every_launch_argument_is_documented_in_readme(source):
-    section = README[README.index('### Launch files'):]
+def test_every_launch_argument_is_documented(source):
+    section = LAUNCH_PAGE[LAUNCH_PAGE.index('## Launch files'):]
     section = section[:section.index('\n## ')]
     assert source.path.name in section
     assert source.arguments
     for name, options in source.arguments.items():
-        assert f'`{name}`' in section, f'{source.path.name}: {name} is not in README'
+        assert f'`{name}`' in section, f'{source.path.name}: {name} is not documented'
         assert 'description' in options and 'default_value' in options, name
     executor = source.arguments['executor']
     assert ast.literal_eval(executor['choices']) == list(EXECUTORS)

@@ -26,6 +26,6 @@ def test_pep257():
     result = subprocess.run(
         [sys.executable, '-m', 'pydocstyle', '--convention=pep257', '--add-select=D213',
          f'--add-ignore={AMENT_PEP257_IGNORE}',
-         'observer_ros', 'test', 'launch'],
+         'observer_ros', 'test', 'launch', 'doc'],
         capture_output=True, text=True, cwd=REPOSITORY)
     assert result.returncode == 0, f'pydocstyle found problems:\n{result.stdout}{result.stderr}'

@@ -91,6 +91,8 @@ class DiagnosticsPublisher:
         ``checks(now_ns)`` returns the :class:`~observer_ros.app.health.Check` list at
         ``now_ns`` (``time.monotonic_ns()``).
 
+    Notes
+    -----
     With ``diagnostics.period`` 0 nothing is published (:attr:`timer` is None).
 
     """

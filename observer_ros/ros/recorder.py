@@ -56,6 +56,8 @@ class TopicRecorder(Node):
     keep_messages : bool
         Also keep ``(receive_time_ns, message)`` pairs (for bag writing).
 
+    Notes
+    -----
     Each topic's QoS comes from :func:`recording_qos` when the recorder is created.
 
     """

@@ -293,6 +293,14 @@ def identify_subspace(records: Sequence[Record], order: int, dt: float,
     a = np.linalg.lstsq(basis[:-n_outputs], basis[n_outputs:], rcond=None)[0]
     if not np.isfinite(a).all():
         raise DesignError('the identified A is not finite', 'order')
+    radius = float(np.max(np.abs(np.linalg.eigvals(a))))
+    if radius > 1.0:
+        raise DesignError(
+            f'the identified model of order {order} is unstable (a pole at |z| = {radius:.6g} '
+            f'> 1): B and D are fitted on its simulated output, which an unstable model '
+            f'cannot give. Identify from open-loop data that excite the plant (in a closed '
+            f'loop the input follows the noise and biases the subspace estimate), try another '
+            f'order, or stabilise the plant first', 'order')
     b, d, initial = _input_matrices(a, c, records)
     return SubspaceModel(a, b, c, d, float(dt), values, tuple(initial), horizon)
 

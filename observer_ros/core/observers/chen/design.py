@@ -73,6 +73,8 @@ class ChenDesign(ObserverDesign):
     condition : float
         Condition number of ``[C; T]``.
 
+    Notes
+    -----
     The other attributes are those of :class:`ObserverDesign`. With a given ``L``, ``f`` is
     block diagonal (:func:`real_block_matrix`); otherwise ``f`` is lower block triangular and
     ``t`` has orthonormal rows (:func:`orthonormal_chen`).
