@@ -38,15 +38,16 @@ from observer_ros.config.model import Augmentation
 from observer_ros.config.observer import JointStateSelection, ObserverSetup
 from observer_ros.config.plant import PlantSettings
 from observer_ros.config.schema import (
-    ALL_NODES, COVARIANCE_LIMIT, FEEDBACK, JOINT_STATE_FIELDS, MESSAGE_TYPES,
-    node_parameters, OBSERVER, OBSERVER_ARGUMENTS, PARAMETER_SPECS, parameter_table,
+    ALL_NODES, COMBINED_NODES, CONTROLLER, CONTROLLER_INPUTS, COVARIANCE_LIMIT, FEEDBACK,
+    JOINT_STATE_FIELDS, MESSAGE_TYPES, node_parameters, OBSERVER, OBSERVER_ARGUMENTS, PARAMETER_SPECS, parameter_table,
     PARAMETERS, ParameterSpec, PLANT, ROS_PARAMETERS, TOPIC_ROLES, TOPICS, VALUE_LIMIT)
 from observer_ros.config.sections import Binding, complete_parameters, Sections, TopicSettings
 from observer_ros.core.arguments import (
     BOOL, DOUBLE, DOUBLE_ARRAY, INTEGER, STRING, STRING_ARRAY)
 
 __all__ = ['BOOL', 'DOUBLE', 'DOUBLE_ARRAY', 'INTEGER', 'STRING', 'STRING_ARRAY',
-           'ALL_NODES', 'Augmentation', 'Binding', 'COVARIANCE_LIMIT', 'Configuration',
+           'ALL_NODES', 'Augmentation', 'Binding', 'COMBINED_NODES', 'CONTROLLER',
+           'CONTROLLER_INPUTS', 'COVARIANCE_LIMIT', 'Configuration',
            'FEEDBACK', 'FeedbackSettings', 'JOINT_STATE_FIELDS', 'JointStateSelection',
            'LoopAnalysis', 'MESSAGE_TYPES', 'NODE_PARTS', 'OBSERVER', 'OBSERVER_ARGUMENTS',
            'ObserverSetup', 'PARAMETERS', 'PARAMETER_SPECS', 'PARTS', 'PLANT',

@@ -32,7 +32,7 @@ from observer_ros.config.model import Augmentation
 from observer_ros.config.observer import (
     joint_state_selection, observer_design, ObserverSetup)
 from observer_ros.config.plant import plant_settings, PlantSettings
-from observer_ros.config.schema import FEEDBACK, OBSERVER, PLANT
+from observer_ros.config.schema import CONTROLLER, FEEDBACK, OBSERVER, PLANT
 from observer_ros.config.sections import DiagnosticsSection, Sections, TopicsSection
 from observer_ros.config.timing import check_sample_period, sample_rate
 from observer_ros.core.errors import ConfigError
@@ -45,7 +45,8 @@ PARTS = ('observer', 'feedback', 'plant')
 #: The parts each node builds from its sections (every node also has the model, the
 #: topics and the diagnostics). A node that runs an observer and a feedback law lists both
 #: (and then also gets the loop analysis); the CLI and the bag tools build every part.
-NODE_PARTS = {PLANT: ('plant',), OBSERVER: ('observer',), FEEDBACK: ('feedback',)}
+NODE_PARTS = {PLANT: ('plant',), OBSERVER: ('observer',), FEEDBACK: ('feedback',),
+              CONTROLLER: ('observer', 'feedback')}
 
 
 @dataclass(frozen=True)

@@ -36,6 +36,16 @@ from observer_ros.core.placement import METHODS
 PLANT, OBSERVER, FEEDBACK = 'plant_simulator', 'observer', 'state_feedback'
 ALL_NODES = (PLANT, OBSERVER, FEEDBACK)
 
+#: The one-process observer and state feedback (``observer_controller``): it declares the
+#: parameters of both (:data:`COMBINED_NODES`) and its own ``controller.*``.
+CONTROLLER = 'observer_controller'
+
+#: Nodes that declare the parameters of several others, besides their own.
+COMBINED_NODES = {CONTROLLER: (OBSERVER, FEEDBACK)}
+
+#: Where the controller takes the input of its next prediction from.
+CONTROLLER_INPUTS = ('u', 'command')
+
 
 @dataclass(frozen=True)
 class ParameterSpec(Argument):
@@ -79,7 +89,7 @@ TOPIC_ROLES = (
     ('nis', 'nis', (OBSERVER,)))
 TOPICS = tuple(topic for topic, _, _ in TOPIC_ROLES)
 
-_OBS, _FB, _PL = (OBSERVER,), (FEEDBACK,), (PLANT,)
+_OBS, _FB, _PL, _CTL = (OBSERVER,), (FEEDBACK,), (PLANT,), (CONTROLLER,)
 
 
 def topic_names(model, topic: str) -> tuple:
@@ -240,6 +250,15 @@ FEEDBACK_PARAMETERS = (
              dynamic=True),
 )
 
+CONTROLLER_PARAMETERS = (
+    _spec('controller.input', STRING, 'u', 'observer_controller: where the input of the next '
+          'prediction comes from: u (the applied input the plant reports on u, stamped with '
+          'the sample it is applied from) | command (no u topic: the command it sent, taken as '
+          'applied from the next sample on; an actuator that saturates below '
+          'feedback.input_limits or a command that arrives late makes the prediction wrong).',
+          _CTL, choices=CONTROLLER_INPUTS),
+)
+
 #: Parameters of the managed (lifecycle) variants only (``observer_lifecycle``,
 #: ``state_feedback_lifecycle``); the plain nodes do not declare them.
 LIFECYCLE_PARAMETERS = (
@@ -368,7 +387,7 @@ OBSERVER_ARGUMENTS = {argument.name: f'observer.{argument.name}'
 PARAMETERS = (MODEL + OBSERVER_STREAM
               + tuple(_on(_OBS, argument, OBSERVER_ARGUMENTS[argument.name])
                       for argument in observer_arguments())
-              + FEEDBACK_PARAMETERS + LIFECYCLE_PARAMETERS + PLANT_PARAMETERS + DIAGNOSTICS
+              + FEEDBACK_PARAMETERS + CONTROLLER_PARAMETERS + LIFECYCLE_PARAMETERS + PLANT_PARAMETERS + DIAGNOSTICS
               + tuple(spec for role in TOPIC_ROLES for spec in _topic_parameters(*role)))
 
 PARAMETER_SPECS = {spec.name: spec for spec in PARAMETERS}
@@ -381,7 +400,8 @@ def parameter_table() -> str:
     """Return the parameter schema as the Markdown table README shows."""
     rows = ['| parameter | type | default | range | run-time | nodes | meaning |',
             '|---|---|---|---|---|---|---|']
-    short = {PLANT: 'plant', OBSERVER: 'observer', FEEDBACK: 'feedback'}
+    short = {PLANT: 'plant', OBSERVER: 'observer', FEEDBACK: 'feedback',
+             CONTROLLER: 'controller'}
     for spec in PARAMETERS:
         default = json.dumps(spec.default) if not isinstance(spec.default, str) else spec.default
         limits = spec.range_text() or (f'abs <= {number_text(spec.entry_limit)}'
@@ -397,10 +417,13 @@ def node_parameters(node: str, managed: bool = False) -> tuple:
     Return the specs a node declares (``node``: :data:`PLANT`, :data:`OBSERVER` ...).
 
     ``managed``: the node's lifecycle variant, which also declares
-    :data:`LIFECYCLE_PARAMETERS`.
+    :data:`LIFECYCLE_PARAMETERS`. A combined node (:data:`COMBINED_NODES`) declares those of
+    each node it combines, once.
     """
-    if node not in ALL_NODES:
-        raise ValueError(f'node: expected one of {", ".join(ALL_NODES)}, got {node!r}')
+    if node not in ALL_NODES + tuple(COMBINED_NODES):
+        raise ValueError(f'node: expected one of {", ".join(ALL_NODES + tuple(COMBINED_NODES))}'
+                         f', got {node!r}')
     managed_only = () if managed else tuple(spec.name for spec in LIFECYCLE_PARAMETERS)
+    roles = {node, *COMBINED_NODES.get(node, ())}
     return tuple(spec for spec in PARAMETERS
-                 if node in spec.nodes and spec.name not in managed_only)
+                 if roles.intersection(spec.nodes) and spec.name not in managed_only)

@@ -19,8 +19,9 @@ A parameter set is checked once, parameter by parameter, with the schema's
 :class:`~observer_ros.config.schema.ParameterSpec` (:func:`complete_parameters`), and read
 into frozen dataclasses, one per section: :class:`ModelSection`, :class:`ObserverSection`,
 :class:`FeedbackSection`, :class:`PlantSection`, :class:`DiagnosticsSection`,
-:class:`TopicsSection` (and :class:`LifecycleSection`), together :class:`Sections`. Code
-reads these attributes (``sections.plant.samples``), never a parameter name.
+:class:`TopicsSection` (and :class:`ControllerSection`, :class:`LifecycleSection`), together
+:class:`Sections`. Code reads these attributes (``sections.plant.samples``), never a
+parameter name.
 
 Each field is bound to its parameter once, with :func:`bound`: the field's name is the
 argument the core knows the value by (``ModelSection.A``, ``IntegralSection.poles``), the
@@ -314,6 +315,13 @@ class FeedbackSection(Section):
 
 
 @dataclass(frozen=True)
+class ControllerSection(Section):
+    """``controller.*``: what only the one-process observer-controller has."""
+
+    input: str = bound('controller.input')
+
+
+@dataclass(frozen=True)
 class LifecycleSection(Section):
     """The managed nodes' own parameters."""
 
@@ -433,6 +441,7 @@ class Sections(Section):
     model: ModelSection = nested(ModelSection)
     observer: ObserverSection = nested(ObserverSection)
     feedback: FeedbackSection = nested(FeedbackSection)
+    controller: ControllerSection = nested(ControllerSection)
     lifecycle: LifecycleSection = nested(LifecycleSection)
     plant: PlantSection = nested(PlantSection)
     diagnostics: DiagnosticsSection = nested(DiagnosticsSection)

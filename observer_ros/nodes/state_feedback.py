@@ -45,6 +45,7 @@ from collections import Counter
 import time
 from typing import Optional
 
+import numpy as np
 from rclpy.clock import Clock, ClockType
 
 from observer_ros.config import FEEDBACK
@@ -83,40 +84,38 @@ def _integral_key(system) -> Optional[tuple]:
             system.model.dt)
 
 
-class StateFeedbackWiring:
+class FeedbackCommands:
     """
-    The state feedback's wiring: the law between ``x_hat``, ``reference`` and ``u_cmd``.
+    The state feedback of a node: the law, ``reference``, the watchdog and ``u_cmd``.
 
-    A mixin: :class:`StateFeedbackNode` builds it in its constructor, the managed variant
-    (:mod:`observer_ros.nodes.state_feedback_lifecycle`) on ``configure``.
+    A mixin shared by the state feedback (:class:`StateFeedbackWiring`, which feeds it the
+    ``x_hat`` it subscribes) and the one-process observer-controller
+    (:mod:`observer_ros.nodes.observer_controller`, which feeds it its own estimates):
+    :meth:`build_feedback` makes it, :meth:`command_for` turns an accepted estimate into the
+    published command. Its counts are in :attr:`command_counters`.
     """
 
-    def build(self, system) -> None:
-        """Make the law, the publisher, the subscriptions and the watchdog timers."""
+    #: What the watchdog waits for (named in its messages).
+    STALE_INPUT = 'x_hat'
+
+    def build_feedback(self, system) -> None:
+        """Make the law, the ``u_cmd`` publisher, ``reference`` and the watchdog timers."""
         preload_methods()  # no placement method may import a module on a callback path
-        self.vet_system(system)
+        self.vet_feedback(system)
         self.law = feedback_law(system)
-        self.limits = value_limits(system)
-        self.codecs = {topic: VectorCodec.for_topic(system, topic)
-                       for topic in ('x_hat', 'reference', 'u_cmd', 'y')}
-        self.counters: Counter = Counter()
+        self.feedback_limits = value_limits(system)
+        self.feedback_codecs = {topic: VectorCodec.for_topic(system, topic)
+                                for topic in ('x_hat', 'reference', 'u_cmd', 'y')}
+        self.command_counters: Counter = Counter()
         self.reference = None
         #: ``time.monotonic_ns()`` when the last accepted estimate arrived (None: none yet).
         self.last_estimate_ns = None
         self.stale = False
-        feedback = system.feedback
-        self.health = NodeHealth(
-            self, {'x_hat': monitor(system, 'x_hat', feedback.timeout, minimum_only=True),
-                   'reference': monitor(system, 'reference', 0.0, required=False,
-                                        rated=False)},
-            lambda: self.counters)
-        self.diagnostics = self.health.publisher
-        self.publisher = self.topic_publisher(self.codecs['u_cmd'].message_class, 'u_cmd')
-        self.topic_subscription(self.codecs['x_hat'].message_class, 'x_hat', self._on_estimate)
-        self.topic_subscription(self.codecs['reference'].message_class, 'reference',
+        self.publisher = self.topic_publisher(self.feedback_codecs['u_cmd'].message_class,
+                                              'u_cmd')
+        self.topic_subscription(self.feedback_codecs['reference'].message_class, 'reference',
                                 self._on_reference)
-        self.measurement_subscription = None
-        self._subscribe_measurements(system)
+        feedback = system.feedback
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.watchdog = self.create_timer(feedback.timeout, self._on_watchdog, clock=steady,
                                           autostart=False)
@@ -128,30 +127,22 @@ class StateFeedbackWiring:
             self.get_logger().info(f'K_d = {feedback.disturbance_gain.tolist()} (disturbance '
                                    f'rejection)')
 
-    def _subscribe_measurements(self, system) -> None:
-        """Subscribe ``y`` once integral action needs it."""
-        if system.feedback.integral is not None and self.measurement_subscription is None:
-            self.health.watch('y', monitor(system, 'y', 0.0, minimum_only=True))
-            self.measurement_subscription = self.topic_subscription(
-                self.codecs['y'].message_class, 'y', self._on_measurement)
-
-    def vet_system(self, system) -> None:
+    def vet_feedback(self, system) -> None:
         """Refuse configurations without a feedback gain."""
         if system.model.n_inputs == 0:
-            raise ConfigError('model.B', 'the state_feedback node needs a model with inputs; '
-                              'model.B is empty (m = 0)')
+            raise ConfigError('model.B', f'the {self.role} node needs a model with inputs; '
+                              f'model.B is empty (m = 0)')
         if system.feedback is None:
-            raise ConfigError('feedback.gain', 'the state_feedback node needs feedback.gain '
-                              'or feedback.poles')
+            raise ConfigError('feedback.gain', f'the {self.role} node needs feedback.gain '
+                              f'or feedback.poles')
 
-    def apply_system(self, previous, system) -> None:
+    def apply_feedback(self, previous, system) -> None:
         """Use the new gains, limits and timing from now on."""
         old_integral = self.law.integral
         self.law = feedback_law(system)
         if old_integral is not None and _integral_key(previous) == _integral_key(system):
             self.law.integral = old_integral  # same integrator: keep z
-        self._subscribe_measurements(system)
-        self.limits = value_limits(system)
+        self.feedback_limits = value_limits(system)
         new, old = system.feedback, previous.feedback
         for timer, period, before in ((self.watchdog, new.timeout, old.timeout),
                                       (self.repeat_timer, new.safe_command_period,
@@ -161,24 +152,26 @@ class StateFeedbackWiring:
                 if not timer.is_canceled():
                     timer.reset()  # the new period counts from now
 
-    def _decode(self, topic: str, message):
+    def decode_checked(self, topic: str, message):
+        """Decode a feedback input; drop (and count) a malformed or out-of-range one."""
         try:
-            stamp, vector = self.codecs[topic].decode(message)
+            stamp, vector = self.feedback_codecs[topic].decode(message)
         except MalformedMessage as e:
-            self.counters['malformed'] += 1
+            self.command_counters['malformed'] += 1
             self.warn_once(f'malformed {topic}', f'dropped a malformed message: {e}')
             return None, None
         self.health.tick(topic, stamp)
-        if not within_limit(vector, self.limits[topic]):
-            self.counters['out_of_range'] += 1
+        limit = self.feedback_limits[topic]
+        if not within_limit(vector, limit):
+            self.command_counters['out_of_range'] += 1
             self.warn_once(f'{topic} out of range',
                            f'dropped {topic} {vector.tolist()}: a value exceeds '
-                           f'topics.{topic}.limit = {self.limits[topic]:g} in magnitude')
+                           f'topics.{topic}.limit = {limit:g} in magnitude')
             return None, None
         return stamp, vector
 
     def _on_reference(self, message) -> None:
-        _, reference = self._decode('reference', message)
+        _, reference = self.decode_checked('reference', message)
         if reference is None:
             return
         if self.law.reference_gain is None and self.law.integral is None:
@@ -187,30 +180,34 @@ class StateFeedbackWiring:
                            'feedback.reference_gain)')
         self.reference = reference
 
-    def _on_estimate(self, message) -> None:
-        stamp, estimate = self._decode('x_hat', message)
-        if estimate is None:
-            return
+    def command_for(self, stamp: int, estimate) -> np.ndarray:
+        """
+        Publish the command of an accepted estimate stamped ``stamp``; return it.
+
+        Re-arms the watchdog (and ends a stale spell); a command that comes out non-finite
+        or beyond ``topics.u_cmd.limit`` is replaced by ``feedback.safe_command``.
+        """
         self.last_estimate_ns = time.monotonic_ns()
         self.watchdog.reset()
         if self.stale:
             self.stale = False
             self.repeat_timer.cancel()
-            self.get_logger().info('x_hat is back: state feedback resumed')
+            self.get_logger().info(f'{self.STALE_INPUT} is back: state feedback resumed')
         stamp = stamp or self._now_stamp()
         command = self.law.command(estimate, self.reference, stamp)
-        if not within_limit(command, self.limits['u_cmd']):
-            self.counters['unsafe_command'] += 1
+        if not within_limit(command, self.feedback_limits['u_cmd']):
+            self.command_counters['unsafe_command'] += 1
             self.warn_once('unsafe command', f'the command {command.tolist()} is non-finite or '
-                           f'beyond topics.u_cmd.limit = {self.limits["u_cmd"]:g}: published '
-                           f'feedback.safe_command instead')
+                           f'beyond topics.u_cmd.limit = {self.feedback_limits["u_cmd"]:g}: '
+                           f'published feedback.safe_command instead')
             command = self.system.feedback.safe_command
-        self.counters['commands'] += 1
-        self.publisher.publish(self.codecs['u_cmd'].encode(stamp, command))
+        self.command_counters['commands'] += 1
+        self.publisher.publish(self.feedback_codecs['u_cmd'].encode(stamp, command))
+        return command
 
-    def _on_measurement(self, message) -> None:
-        stamp, y = self._decode('y', message)
-        if y is not None and self.law.integral is not None:
+    def integrate_measurement(self, stamp, y) -> None:
+        """Keep a measurement for the integral action (nothing without it)."""
+        if self.law.integral is not None:
             self.law.integral.measure(stamp or self._now_stamp(), y)
 
     def _now_stamp(self) -> int:
@@ -232,12 +229,12 @@ class StateFeedbackWiring:
             return  # an estimate re-armed the timer after this call was due
         self.watchdog.cancel()
         self.stale = True
-        self.counters['stale'] += 1
+        self.command_counters['stale'] += 1
         self._publish_safe_command()  # first: the log write must not delay it
         self.repeat_timer.reset()
         self.get_logger().warning(
-            f'no x_hat for {waited / NANOSECONDS:.3f} s (feedback.timeout = {timeout} s, '
-            f'steady clock): publishing the safe command '
+            f'no {self.STALE_INPUT} for {waited / NANOSECONDS:.3f} s (feedback.timeout = '
+            f'{timeout} s, steady clock): publishing the safe command '
             f'{self.system.feedback.safe_command.tolist()} every '
             f'feedback.safe_command_period = {self.system.feedback.safe_command_period} s')
 
@@ -249,17 +246,81 @@ class StateFeedbackWiring:
 
     def send_safe_command(self) -> None:
         """Publish ``feedback.safe_command`` once, stamped with the node clock (counted)."""
-        self.counters['safe_commands'] += 1
-        self.publisher.publish(
-            self.codecs['u_cmd'].encode(self._now_stamp(), self.system.feedback.safe_command))
+        self.command_counters['safe_commands'] += 1
+        self.publisher.publish(self.feedback_codecs['u_cmd'].encode(
+            self._now_stamp(), self.system.feedback.safe_command))
 
-    def pause(self) -> None:
+    def pause_feedback(self) -> None:
         """Deactivation: one safe command, then silence; the watchdog re-arms on activation."""
         self.send_safe_command()
         self.watchdog.cancel()
         self.repeat_timer.cancel()
         self.stale = False
         self.last_estimate_ns = None
+
+
+class StateFeedbackWiring(FeedbackCommands):
+    """
+    The state feedback's wiring: the law between ``x_hat``, ``reference`` and ``u_cmd``.
+
+    A mixin: :class:`StateFeedbackNode` builds it in its constructor, the managed variant
+    (:mod:`observer_ros.nodes.state_feedback_lifecycle`) on ``configure``.
+    """
+
+    def build(self, system) -> None:
+        """Make the law, the publisher, the subscriptions and the watchdog timers."""
+        self.build_feedback(system)
+        feedback = system.feedback
+        self.health = NodeHealth(
+            self, {'x_hat': monitor(system, 'x_hat', feedback.timeout, minimum_only=True),
+                   'reference': monitor(system, 'reference', 0.0, required=False,
+                                        rated=False)},
+            lambda: self.command_counters)
+        self.diagnostics = self.health.publisher
+        self.topic_subscription(self.feedback_codecs['x_hat'].message_class, 'x_hat',
+                                self._on_estimate)
+        self.measurement_subscription = None
+        self._subscribe_measurements(system)
+
+    @property
+    def counters(self) -> Counter:
+        """The node's counts (:attr:`command_counters`)."""
+        return self.command_counters
+
+    @property
+    def codecs(self) -> dict:
+        """The codecs of the node's topics."""
+        return self.feedback_codecs
+
+    def _subscribe_measurements(self, system) -> None:
+        """Subscribe ``y`` once integral action needs it."""
+        if system.feedback.integral is not None and self.measurement_subscription is None:
+            self.health.watch('y', monitor(system, 'y', 0.0, minimum_only=True))
+            self.measurement_subscription = self.topic_subscription(
+                self.feedback_codecs['y'].message_class, 'y', self._on_measurement)
+
+    def vet_system(self, system) -> None:
+        """Refuse configurations without a feedback gain."""
+        self.vet_feedback(system)
+
+    def apply_system(self, previous, system) -> None:
+        """Use the new gains, limits and timing from now on."""
+        self.apply_feedback(previous, system)
+        self._subscribe_measurements(system)
+
+    def _on_estimate(self, message) -> None:
+        stamp, estimate = self.decode_checked('x_hat', message)
+        if estimate is not None:
+            self.command_for(stamp, estimate)
+
+    def _on_measurement(self, message) -> None:
+        stamp, y = self.decode_checked('y', message)
+        if y is not None:
+            self.integrate_measurement(stamp, y)
+
+    def pause(self) -> None:
+        """Deactivation: one safe command, then silence; the watchdog re-arms on activation."""
+        self.pause_feedback()
 
 
 class StateFeedbackNode(StateFeedbackWiring, ConfiguredNode):
