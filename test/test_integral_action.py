@@ -63,7 +63,8 @@ def simulate(params, samples, reference=STEP, anti_windup=True):
     system = validate_parameters(params)
     settings = system.plant
     plant = PlantSimulator(system.model, settings.initial_state, None, None, 0,
-                           settings.input_limits, input_offset=settings.input_offset)
+                           settings.input_limits, settings.disturbance,
+                           settings.disturbance_time, input_offset=settings.input_offset)
     stream = system.make_stream()
     law = feedback_law(system)
     if law.integral is not None:
@@ -257,3 +258,33 @@ def test_integral_action_switched_on_at_run_time_watches_y():
             assert node.law.integral is not None
         finally:
             node.destroy_node()
+
+
+#: A joint on a spring (no integrator, so a constant position bias is observable) whose
+#: position sensor reads ``BIAS`` too high; the bias is modelled (``model.disturbances``).
+BIASED = {'model.A': [0.0, 1.0, -4.0, -2.0], 'model.B': [0.0, 4.0], 'model.C': [1.0, 0.0],
+          'model.state_names': ['q', 'q_dot'], 'model.input_names': ['shoulder_effort'],
+          'model.output_names': ['shoulder'], 'model.disturbances': ['constant'],
+          'model.disturbance_entries': ['output:shoulder'], 'model.disturbance_names': ['bias'],
+          'observer.poles': ['-20', '-22', '-24'], 'feedback.poles': ['-8', '-9'],
+          'feedback.integral_poles': ['-6'], 'plant.rate_hz': 100.0}
+BIAS = 0.3
+
+
+def test_a_sensor_bias_is_taken_out_of_the_integrated_output():
+    # The plant's bias state is BIAS from the start: every reading is q + BIAS. Integral
+    # action integrates r - (y - bias_hat), so the true q goes to the reference (before,
+    # the biased reading did, leaving q off by the bias).
+    system, y, _, law = simulate({**BIASED, 'plant.disturbance': [BIAS]}, 600)
+    assert law.integral.output_bias is not None
+    true_output = y - BIAS
+    assert np.abs(settled(true_output) - STEP).max() < 1e-6
+    assert system.augmentation.output_bias((0,)).tolist() == [[0.0, 0.0, 1.0]]
+
+
+def test_closed_loop_nodes_take_the_sensor_bias_out(tmp_path):
+    path = write_params(tmp_path, {**BIASED, 'plant.disturbance': [BIAS]})
+    _, _, arrays, counters = run_lockstep(str(path), samples=500, reference=[STEP])
+    assert counters.get('lockstep_timeouts', 0) == 0
+    q = arrays['x_true'][1][:, 0]
+    assert np.abs(settled(q) - STEP).max() < 1e-6

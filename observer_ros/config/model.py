@@ -113,6 +113,21 @@ class Augmentation:
         """The disturbance states after the plant's (0 without disturbances)."""
         return 0 if self.disturbance is None else self.disturbance.n_disturbance_states
 
+    def output_bias(self, outputs) -> Optional[np.ndarray]:
+        """
+        Return ``E``, ``(q, n + n_d)``: the sensor bias of ``outputs`` in the estimate.
+
+        ``E x_hat`` is what the ``output:`` disturbances add to those outputs (the columns of
+        the augmented ``C`` on the disturbance states); None when they add nothing (no
+        disturbances, or none at those outputs).
+        """
+        if self.disturbance is None:
+            return None
+        n_plant = self.plant.n_states
+        bias = np.zeros((len(outputs), self.model.n_states))
+        bias[:, n_plant:] = self.model.c[list(outputs), n_plant:]
+        return bias if bias.any() else None
+
     def refuse_without(self, parameter: str, given) -> None:
         """Refuse a disturbance setting ``given`` (non-empty) for a model without any."""
         if given and self.disturbance is None:

@@ -26,7 +26,10 @@ where ``t_(k-1)`` is the stamp of the previous command, ``y_i(t_(k-1))`` the lat
 measurement stamped at or before it, ``r_(k-1)`` the reference then, and ``h_k`` the model
 period ``T`` for a discrete model or ``t_k - t_(k-1)`` in seconds for a continuous one (the
 discrete form is exactly the augmented model :mod:`observer_ros.core.design.integral`
-designs for). Anti-windup is conditional integration: when the command with the new ``z``
+designs for). With a modelled sensor bias the estimate carries it, and ``output_bias``
+(``E``, q x n, :class:`IntegralAction`) takes it out: the error is
+``r_(k-1) - (y_i(t_(k-1)) - E x_hat(t_(k-1)))``, so the true output, not the biased reading,
+goes to the reference. Anti-windup is conditional integration: when the command with the new ``z``
 is saturated and the step's increment ``K_i h e`` pushes a saturated input further out, the
 increment is dropped (``z`` keeps its value), so ``z`` never grows while the actuator is at
 its limit in the direction of the error.
@@ -125,7 +128,7 @@ class StateFeedbackLaw:
         if reference is not None and self.reference_gain is not None:
             u = u + self.reference_gain @ reference
         if self.integral is not None:
-            u = self.integral.command(u, reference, stamp_ns, self.input_limits)
+            u = self.integral.command(u, reference, stamp_ns, self.input_limits, estimate)
         if self.input_limits is not None:
             u = np.clip(u, self.input_limits[:, 0], self.input_limits[:, 1])
         return u
@@ -146,6 +149,9 @@ class IntegralAction:
         interval between commands is used).
     anti_windup : bool
         Conditional integration under the input limits (see the module notes).
+    output_bias : array_like or None, shape (q, n)
+        ``E``: the sensor bias of the integrated outputs in the estimate, ``E x_hat``
+        (taken from the measured outputs before they are integrated); None: no bias.
 
     Attributes
     ----------
@@ -171,7 +177,7 @@ class IntegralAction:
     HISTORY = 64
 
     def __init__(self, gain, outputs: Sequence[int], period: float = 0.0,
-                 anti_windup: bool = True) -> None:
+                 anti_windup: bool = True, output_bias=None) -> None:
         self.gain = np.atleast_2d(np.asarray(gain, dtype=float))
         self.outputs = list(outputs)
         if self.gain.shape[1] != len(self.outputs):
@@ -179,6 +185,12 @@ class IntegralAction:
                               f'integrated output), got shape {self.gain.shape}')
         self.period = float(period)
         self.anti_windup = anti_windup
+        self.output_bias = None
+        if output_bias is not None:
+            self.output_bias = np.atleast_2d(np.asarray(output_bias, dtype=float))
+            if self.output_bias.shape[0] != len(self.outputs):
+                raise ConfigError('output_bias', f'expected {len(self.outputs)} rows (one per '
+                                  f'integrated output), got shape {self.output_bias.shape}')
         self.state = np.zeros(len(self.outputs))
         self.skipped = 0
         self._stamps: list = []
@@ -209,17 +221,27 @@ class IntegralAction:
         return None if index < 0 else self._values[index]
 
     def command(self, u: np.ndarray, reference: Optional[np.ndarray],
-                stamp_ns: Optional[int], limits: Optional[np.ndarray]) -> np.ndarray:
-        """Return ``u + K_i z`` after integrating up to ``stamp_ns`` (unclipped)."""
+                stamp_ns: Optional[int], limits: Optional[np.ndarray],
+                estimate: Optional[np.ndarray] = None) -> np.ndarray:
+        """
+        Return ``u + K_i z`` after integrating up to ``stamp_ns`` (unclipped).
+
+        ``estimate`` (``x_hat`` of this command) gives the sensor bias the next step takes
+        out of the measurement (with ``output_bias``).
+        """
         r = (np.zeros(len(self.outputs)) if reference is None
              else np.asarray(reference, dtype=float)[self.outputs])
-        previous, self._previous = self._previous, (stamp_ns, r)
+        bias = (None if self.output_bias is None or estimate is None
+                else self.output_bias @ np.asarray(estimate, dtype=float))
+        previous, self._previous = self._previous, (stamp_ns, r, bias)
         if stamp_ns is not None and previous is not None and previous[0] is not None:
             step_ns = int(stamp_ns) - int(previous[0])
             if step_ns <= 0:  # time went back (a restart): start the integral afresh
                 self.state = np.zeros(len(self.outputs))
             else:
                 measured = self._measured_at(previous[0])
+                if measured is not None and previous[2] is not None:
+                    measured = measured - previous[2]  # the true output, not the reading
                 if measured is not None:
                     h = self.period or step_ns / 1e9
                     self._integrate(u, h * (previous[1] - measured), limits)

@@ -65,7 +65,8 @@ def feedback_law(system) -> StateFeedbackLaw:
     feedback = system.feedback
     design = feedback.integral
     integral = None if design is None else IntegralAction(
-        design.integral_gain, design.outputs, system.model.dt)
+        design.integral_gain, design.outputs, system.model.dt,
+        output_bias=system.augmentation.output_bias(design.outputs))
     return StateFeedbackLaw(feedback.estimate_gain, feedback.reference_gain,
                             feedback.input_limits, integral)
 
