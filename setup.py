@@ -47,6 +47,9 @@ setup(
             'state_feedback = observer_ros.nodes.state_feedback:main',
             'observer_lifecycle = observer_ros.nodes.observer_lifecycle:main',
             'state_feedback_lifecycle = observer_ros.nodes.state_feedback_lifecycle:main',
+            'observer_controller = observer_ros.nodes.observer_controller:main',
+            'observer_controller_lifecycle = '
+            'observer_ros.nodes.observer_controller_lifecycle:main',
             'closed_loop = observer_ros.nodes.closed_loop:main',
             'replay = observer_ros.tools.replay:main',
             'play_bag = observer_ros.nodes.bag_player:main',

@@ -99,8 +99,13 @@ def design_json(name: str, script: str) -> dict:
     return json.loads(result.stdout)
 
 
-def closed_loop_record(name: str) -> dict:
-    """Run the lockstep closed loop of a config; return every recorded topic's arrays."""
+def closed_loop_record(name: str, controller: bool = False, extra=()) -> dict:
+    """
+    Run the lockstep closed loop of a config; return every recorded topic's arrays.
+
+    ``controller``: the plant and one ``observer_controller`` instead of the pair;
+    ``extra``: more parameter overrides.
+    """
     from ros_support import overrides, patient_lockstep, ros_context
     from observer_ros.nodes.closed_loop import ClosedLoop
     from observer_ros.ros.executors import make_executor, spin_until
@@ -108,9 +113,10 @@ def closed_loop_record(name: str) -> dict:
 
     with ros_context('--params-file', str(config_path(name))) as context:
         settings = (overrides(plant__lockstep=True, plant__samples=CLOSED_LOOP_SAMPLES)
-                    + patient_lockstep())
+                    + patient_lockstep() + list(extra))
         loop = ClosedLoop(record=True, context=context,
-                          executor=make_executor('single', context), overrides=settings)
+                          executor=make_executor('single', context), overrides=settings,
+                          controller=controller)
         extra = None
         try:
             system = loop.system
@@ -122,8 +128,14 @@ def closed_loop_record(name: str) -> dict:
                     extra.count_publishers(topic) >= 1
                     for topic in ('x_hat_covariance', 'nis')), 10.0)
             assert loop.spin(timeout_sec=120.0), 'the lockstep run did not finish'
-            record = {}
             recorders = [loop.recorder] + ([extra] if extra is not None else [])
+            # A controller publishes the last u_cmd (which ends the run) before the last
+            # estimate: let what it published after it arrive.
+            spin_until(loop.executor, lambda: all(
+                len(stamps) and stamps[-1] == CLOSED_LOOP_SAMPLES * system.plant.period_ns
+                for stamps in [loop.recorder.arrays('x_hat')[0]] + (
+                    [] if extra is None else [extra.arrays('nis')[0]])), 5.0, context)
+            record = {}
             for recorder in recorders:
                 for topic, codec in recorder.codecs.items():
                     stamps, values = recorder.arrays(topic)

@@ -85,6 +85,7 @@ PROCESS_START = 60.0
 #: machine can take longer than the defaults (0.5 s, 1 s): runs that must be exact wait this
 #: long, per node.
 PATIENT_LOCKSTEP = {'state_feedback': {'feedback.timeout': 60.0},
+                    'observer_controller': {'feedback.timeout': 60.0},
                     'plant_simulator': {'plant.lockstep_timeout': 10.0}}
 
 
@@ -95,8 +96,9 @@ def patient_lockstep(executable: Optional[str] = None):
     Without an executable: for every node, as ``Parameter`` overrides (one process).
     """
     if executable is None:
-        return [Parameter(name, value=value) for settings in PATIENT_LOCKSTEP.values()
-                for name, value in settings.items()]
+        merged = {name: value for settings in PATIENT_LOCKSTEP.values()
+                  for name, value in settings.items()}
+        return [Parameter(name, value=value) for name, value in merged.items()]
     return [argument for name, value in PATIENT_LOCKSTEP.get(executable, {}).items()
             for argument in ('-p', f'{name}:={value}')]
 
@@ -218,13 +220,18 @@ def offline_estimates(system, recorder):
 
 
 def run_lockstep(config, samples, extra=(), reference=None, bag=None, storage='mcap',
-                 executor='single'):
-    """Run the closed loop in lockstep; return (system, recorder arrays, plant counters)."""
+                 executor='single', controller=False):
+    """
+    Run the closed loop in lockstep; return (system, recorder arrays, plant counters).
+
+    ``controller``: the plant and one ``observer_controller`` instead of the pair.
+    """
     with ros_context('--params-file', str(CONFIG_DIR / config)) as context:
         settings = (overrides(plant__lockstep=True, plant__samples=samples)
                     + patient_lockstep() + list(extra))
         loop = ClosedLoop(record=True, context=context,
-                          executor=make_executor(executor, context), overrides=settings)
+                          executor=make_executor(executor, context), overrides=settings,
+                          controller=controller)
         helper = None
         try:
             if reference is not None:

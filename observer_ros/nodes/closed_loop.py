@@ -17,6 +17,8 @@
 
 The three nodes share one executor and the same parameters (``--ros-args --params-file``).
 With ``plant.lockstep`` the observer and the feedback run on the plant's ``/clock``.
+``--controller`` runs the plant and one ``observer_controller`` instead of the observer and
+the feedback (the same commands, bit for bit, with ``controller.input: u``).
 ``--report DIR`` also records ``x_true`` and ``x_hat`` and, when ``plant.samples`` are done,
 prints the per-state error table and writes ``DIR/closed_loop.png``.
 """
@@ -37,6 +39,7 @@ from observer_ros.bags.storage import BagError, STORAGES, TopicToWrite, write_ba
 from observer_ros.config import Configuration, validate_parameters
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.nodes.observer import ObserverNode
+from observer_ros.nodes.observer_controller import ObserverControllerNode
 from observer_ros.nodes.plant_simulator import plant_done, PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.executors import add_executor_argument, make_executor, spin_until
@@ -49,21 +52,31 @@ RECORDED_TOPICS = ('y', 'u', 'u_cmd', 'x_true', 'x_hat')
 
 
 class ClosedLoop:
-    """The three nodes (and an optional recorder) on one executor."""
+    """
+    The three nodes (and an optional recorder) on one executor.
+
+    ``controller``: the plant and one observer-controller instead (then :attr:`observer`
+    and :attr:`feedback` are that node).
+    """
 
     def __init__(self, record: bool = False, executor=None, context=None,
-                 overrides=()) -> None:
+                 overrides=(), controller: bool = False) -> None:
         self.nodes = []
         try:
             self.plant = PlantSimulatorNode(context=context, parameter_overrides=list(overrides))
             self.nodes.append(self.plant)
             sim_time = [Parameter('use_sim_time', value=True)] if self.plant.lockstep else []
-            self.observer = ObserverNode(context=context,
-                                         parameter_overrides=list(overrides) + sim_time)
-            self.nodes.append(self.observer)
-            self.feedback = StateFeedbackNode(context=context,
-                                              parameter_overrides=list(overrides) + sim_time)
-            self.nodes.append(self.feedback)
+            settings = list(overrides) + sim_time
+            if controller:
+                self.observer = self.feedback = ObserverControllerNode(
+                    context=context, parameter_overrides=settings)
+                self.nodes.append(self.observer)
+            else:
+                self.observer = ObserverNode(context=context, parameter_overrides=settings)
+                self.nodes.append(self.observer)
+                self.feedback = StateFeedbackNode(context=context,
+                                                  parameter_overrides=settings)
+                self.nodes.append(self.feedback)
             self.recorder = None
             if record:
                 self.recorder = TopicRecorder(self.system, RECORDED_TOPICS,
@@ -129,6 +142,9 @@ def main(args=None) -> int:
                         help='write y, u, u_cmd, x_true and x_hat to a new rosbag2 bag at the end')
     parser.add_argument('--storage', choices=STORAGES, default='mcap',
                         help='bag storage for --record (default: mcap)')
+    parser.add_argument('--controller', action='store_true',
+                        help='one observer_controller node instead of observer and '
+                             'state_feedback')
     add_executor_argument(parser)
     options = parser.parse_args(remove_ros_args(argv)[1:])
     if options.record and os.path.exists(options.record):
@@ -138,7 +154,8 @@ def main(args=None) -> int:
         rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
         try:
             loop = ClosedLoop(record=options.report is not None or options.record is not None,
-                              executor=make_executor(options.executor))
+                              executor=make_executor(options.executor),
+                              controller=options.controller)
         except (ConfigError, DesignError) as e:
             print(f'closed_loop: error: {e}', file=sys.stderr)
             rclpy.try_shutdown()

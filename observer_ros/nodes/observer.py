@@ -77,7 +77,7 @@ class ObserverWiring:
         self.stream = setup.make_stream()
         covariance = setup.kind.capabilities.covariance
         topics = ('y', 'u', 'x_hat', 'innovation') + (COVARIANCE_TOPICS if covariance else ())
-        inputs = system.model.n_inputs > 0  # without inputs (m = 0) no u is subscribed
+        inputs = self.subscribes_input(system)
         self.codecs = {topic: VectorCodec.for_topic(system, topic) for topic in topics}
         self.n_states, self.x_hat_codec = system.model.n_states, self.codecs['x_hat']
         self.node_counters: Counter = Counter()
@@ -100,7 +100,7 @@ class ObserverWiring:
         self.wait_timer.cancel()
         self._waiting_for = None
         monitors = {'y': monitor(system, 'y', 0.0)}
-        if system.model.n_inputs:
+        if inputs:
             monitors['u'] = monitor(system, 'u', 0.0, minimum_only=True)
         self.health = NodeHealth(self, monitors, self.counters, estimator=True)
         self.diagnostics = self.health.publisher
@@ -128,6 +128,10 @@ class ObserverWiring:
         """Activation: predictions (``observer.publish_rate``) start again."""
         if self.prediction_timer is not None:
             self.prediction_timer.reset()
+
+    def subscribes_input(self, system) -> bool:
+        """Whether ``u`` is subscribed: without inputs (m = 0) it is not."""
+        return system.model.n_inputs > 0
 
     def _publisher(self, topic: str):
         return self.topic_publisher(self.codecs[topic].message_class, topic)
