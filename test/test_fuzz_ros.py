@@ -35,10 +35,11 @@ from sensor_msgs.msg import JointState
 
 from conftest import CONFIG_DIR
 from observer_ros.config import (
-    DOUBLE, FEEDBACK, INTEGER, load_parameter_file, node_parameters, OBSERVER,
+    CONTROLLER, DOUBLE, FEEDBACK, INTEGER, load_parameter_file, node_parameters, OBSERVER,
     PARAMETER_SPECS, STRING, STRING_ARRAY, validate_parameters)
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.nodes.observer import ObserverNode
+from observer_ros.nodes.observer_controller import ObserverControllerNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.messages import MalformedMessage, ns_to_stamp, stamp_to_ns, VectorCodec
 from observer_ros.ros.parameters import coerced, type_problem
@@ -102,10 +103,12 @@ def bad_message(kind, names, stamp_ns, now_ns, data):
     return serialize_message(good)
 
 
-def test_bad_messages_never_reach_the_estimate():
+@pytest.mark.parametrize('node_class', [ObserverNode, ObserverControllerNode])
+def test_bad_messages_never_reach_the_estimate(node_class):
+    # The observer-controller too: its commands are those of the clean estimates.
     system = validate_parameters(load_parameter_file(str(SEED003)))
     with ros_context('--params-file', str(SEED003)) as context:
-        observer = ObserverNode(context=context)
+        observer = node_class(context=context)
         driver = Driver(context)
         innovations = []
         driver.node.create_subscription(JointState, 'innovation', innovations.append, 100)
@@ -123,6 +126,7 @@ def test_bad_messages_never_reach_the_estimate():
                 # A fresh timeline per example, a second in the past of the node clock.
                 observer.stream.reset()
                 driver.estimates.clear()
+                driver.commands.clear()
                 innovations.clear()
                 before = observer.counters()
                 base = clock.now().nanoseconds - 10 ** 9
@@ -163,6 +167,11 @@ def test_bad_messages_never_reach_the_estimate():
                 assert [stamp_to_ns(m.header.stamp) for m in driver.estimates] == [
                     s.stamp_ns for s in reference]
                 assert np.array_equal(got, np.array([s.estimate for s in reference]))
+                if node_class is ObserverControllerNode:
+                    assert spin_until(executor, lambda: len(driver.commands) >= len(got), 5.0)
+                    commands = np.array([list(m.position) for m in driver.commands])
+                    assert np.array_equal(commands, np.array(
+                        [observer.law.command(s.estimate, None) for s in reference]))
                 campaign['examples'] += 1
 
             example()
@@ -329,13 +338,16 @@ def predicted(node, parameters):
     return True, None
 
 
-@pytest.mark.parametrize('config,role', [(SEED003, OBSERVER), (KALMAN, OBSERVER),
-                                         (SEED003, FEEDBACK)])
-def test_every_run_time_parameter_update_is_vetted(config, role):
-    dynamic = [spec for spec in node_parameters(role) if spec.dynamic]
+@pytest.mark.parametrize('config,node_role', [(SEED003, OBSERVER), (KALMAN, OBSERVER),
+                                              (SEED003, FEEDBACK), (SEED003, CONTROLLER)])
+def test_every_run_time_parameter_update_is_vetted(config, node_role):
+    # The observer-controller is vetted as both nodes are and estimates as the observer.
+    dynamic = [spec for spec in node_parameters(node_role) if spec.dynamic]
+    role = FEEDBACK if node_role == FEEDBACK else OBSERVER
     system = validate_parameters(load_parameter_file(str(config)))
     with ros_context('--params-file', str(config)) as context:
-        node = (ObserverNode if role == OBSERVER else StateFeedbackNode)(context=context)
+        node = {OBSERVER: ObserverNode, FEEDBACK: StateFeedbackNode,
+                CONTROLLER: ObserverControllerNode}[node_role](context=context)
         driver = Driver(context)
         with executor_with(context, node, driver.node) as executor:
             assert spin_until(executor, lambda: node.count_publishers(

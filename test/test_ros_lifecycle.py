@@ -25,9 +25,11 @@ from lifecycle_msgs.srv import ChangeState, GetState
 import numpy as np
 import pytest
 
-from observer_ros.config import FEEDBACK, node_parameters, OBSERVER, validate_parameters
+from observer_ros.config import (
+    CONTROLLER, FEEDBACK, node_parameters, OBSERVER, validate_parameters)
 from observer_ros.config import load_parameter_file
 from observer_ros.core.streaming import EventStream
+from observer_ros.nodes.observer_controller_lifecycle import ObserverControllerLifecycleNode
 from observer_ros.nodes.observer_lifecycle import ObserverLifecycleNode
 from observer_ros.nodes.state_feedback_lifecycle import StateFeedbackLifecycleNode
 from ros_support import (
@@ -105,7 +107,7 @@ def own_entities(node) -> set:
 
 
 def test_only_the_managed_variants_declare_autostart():
-    for role in (OBSERVER, FEEDBACK):
+    for role in (OBSERVER, FEEDBACK, CONTROLLER):
         assert 'autostart' not in {spec.name for spec in node_parameters(role)}
         assert 'autostart' in {spec.name for spec in node_parameters(role, managed=True)}
 
@@ -216,11 +218,47 @@ def test_feedback_sends_one_safe_command_on_deactivate_and_nothing_while_inactiv
             assert list(driver.commands[2].position) == pytest.approx(-gain @ estimate)
 
 
+def test_controller_commands_while_active_one_safe_command_on_deactivate_and_cleans_up():
+    extra = overrides(feedback__timeout=30.0, feedback__safe_command=[0.25])
+    system = validate_parameters(load_parameter_file(str(SEED003)))
+    samples = plant_samples(system, 8)
+    with ros_context('--params-file', str(SEED003)) as context:
+        node = ObserverControllerLifecycleNode(context=context, parameter_overrides=extra)
+        driver = Driver(context)
+        idle = own_entities(node)
+        with executor_with(context, node, driver.node) as executor:
+            lifecycle = Lifecycle(driver.node, executor, 'observer_controller')
+            assert lifecycle.change('configure') and not driver.commands
+            assert spin_until(executor, lambda: driver.y.get_subscription_count() >= 1
+                              and driver.u.get_subscription_count() >= 1
+                              and driver.node.count_publishers('u_cmd') >= 1
+                              and driver.node.count_publishers('x_hat') >= 1, 10.0)
+            drive(driver, executor, node, samples[:2], None)  # inactive: dropped
+            assert lifecycle.change('activate')
+            drive(driver, executor, node, samples[2:6], 0)
+            estimates = expected_estimates(system, samples[2:6])
+            assert spin_until(executor, lambda: len(driver.commands) == 4, 5.0)
+            gain = system.feedback.design.gain
+            assert np.array_equal(np.array([list(m.position) for m in driver.commands]),
+                                  np.array([-gain @ x for x in estimates]))
+            assert lifecycle.change('deactivate')
+            assert spin_until(executor, lambda: len(driver.commands) == 5, 5.0)
+            assert list(driver.commands[4].position) == [0.25]
+            drive(driver, executor, node, samples[6:], None)
+            assert len(driver.commands) == 5
+            assert lifecycle.change('cleanup') and own_entities(node) == idle
+            assert list(node.timers) == [] and not hasattr(node, 'law')
+
+
 @pytest.mark.parametrize('factory, name, bad, fix, reason', [
     (ObserverLifecycleNode, 'observer', {'observer__poles': ['1', '2']},
      {'observer__poles': ['-8', '-9']}, 'observer.poles: '),
     (StateFeedbackLifecycleNode, 'state_feedback', {'feedback__poles': []},
      {'feedback__poles': ['-3', '-4']}, 'feedback.gain: the state_feedback node needs'),
+    (ObserverControllerLifecycleNode, 'observer_controller', {'observer__poles': ['1', '2']},
+     {'observer__poles': ['-8', '-9']}, 'observer.poles: '),
+    (ObserverControllerLifecycleNode, 'observer_controller', {'feedback__poles': []},
+     {'feedback__poles': ['-3', '-4']}, 'feedback.gain: the observer_controller node needs'),
 ])
 def test_bad_configuration_fails_configure_naming_it_until_fixed(capfd, factory, name, bad,
                                                                  fix, reason):

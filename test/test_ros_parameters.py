@@ -26,6 +26,8 @@ from rclpy.parameter import Parameter
 from conftest import CONFIG_DIR
 from observer_ros.core.errors import ConfigError
 from observer_ros.nodes.observer import ObserverNode
+from observer_ros.nodes.observer_controller import ObserverControllerNode
+from observer_ros.nodes.observer_controller_lifecycle import ObserverControllerLifecycleNode
 from observer_ros.nodes.observer_lifecycle import ObserverLifecycleNode
 from observer_ros.nodes.plant_simulator import PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
@@ -36,7 +38,8 @@ SEED003 = CONFIG_DIR / 'seed003_full_order.yaml'
 
 
 @pytest.mark.parametrize('node_class', [ObserverNode, StateFeedbackNode, PlantSimulatorNode,
-                                        ObserverLifecycleNode])
+                                        ObserverLifecycleNode, ObserverControllerNode,
+                                        ObserverControllerLifecycleNode])
 def test_every_schema_parameter_is_declared_with_its_type(node_class):
     with ros_context('--params-file', str(SEED003)) as context:
         node = node_class(context=context)

@@ -31,7 +31,8 @@ from ros_support import (
     executor_with, NodeProcess, patient_lockstep, PROCESS_START, ros_context, run_lockstep,
     spin_until)
 
-EXECUTABLES = ('plant_simulator', 'observer', 'state_feedback', 'closed_loop')
+EXECUTABLES = ('plant_simulator', 'observer', 'state_feedback', 'observer_controller',
+               'closed_loop')
 
 
 @pytest.mark.parametrize('executable', EXECUTABLES)

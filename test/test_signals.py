@@ -54,6 +54,7 @@ NODES = {
     'plant_simulator': None,
     'observer': 'observer of order',
     'state_feedback': 'K = ',
+    'observer_controller': 'closed loop: ',
     'closed_loop': 'K = ',
 }
 
