@@ -40,6 +40,7 @@ from conftest import CONFIG_DIR
 from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.units import NANOSECONDS
+from observer_ros.nodes.observer_controller import ObserverControllerNode
 from observer_ros.nodes.plant_simulator import PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.executors import EXECUTORS, make_executor
@@ -97,17 +98,26 @@ def spin_until(executor, predicate, timeout: float, each=None) -> bool:
 
 
 class FeedbackBench:
-    """A state_feedback node and a test node feeding it x_hat (and /clock with sim time)."""
+    """
+    A state_feedback node and a test node feeding it x_hat (and /clock with sim time).
 
-    def __init__(self, context, executor: str, sim_time: bool = False, **values) -> None:
+    ``controller``: an observer_controller fed ``u`` and ``y`` instead, whose estimates
+    the watchdog waits for.
+    """
+
+    def __init__(self, context, executor: str, sim_time: bool = False,
+                 controller: bool = False, **values) -> None:
         settings = dict(feedback__timeout=TIMEOUT, feedback__safe_command=SAFE_COMMAND,
                         feedback__safe_command_period=SAFE_PERIOD, **values)
         extra = overrides(**settings)
         if sim_time:
             extra.append(Parameter('use_sim_time', value=True))
-        self.feedback = StateFeedbackNode(context=context, parameter_overrides=extra)
+        node_class = ObserverControllerNode if controller else StateFeedbackNode
+        self.feedback = node_class(context=context, parameter_overrides=extra)
         self.node = Node('bench', context=context)
-        self.x_hat = self.node.create_publisher(JointState, 'x_hat', 10)
+        self.controller = controller
+        self.x_hat = self.node.create_publisher(JointState, 'y' if controller else 'x_hat', 10)
+        self.u = self.node.create_publisher(JointState, 'u', 10)
         self.reference = self.node.create_publisher(JointState, 'reference', 10)
         self.clock = self.node.create_publisher(ClockMessage, '/clock', 10)
         self.commands = []  # (monotonic receive time, stamp ns, values)
@@ -120,12 +130,12 @@ class FeedbackBench:
 
         def recorded_send():
             self.safe_sent.append([time.monotonic_ns(), feedback.last_estimate_ns,
-                                   cpu_wait_ns(), feedback.counters['stale'], None])
+                                   cpu_wait_ns(), feedback.command_counters['stale'], None])
             send()
 
         def recorded_publish(raw):
             if self.safe_sent and self.safe_sent[-1][4] is None:
-                self.safe_sent[-1][4] = feedback.codecs['u_cmd'].decode(raw)[0]
+                self.safe_sent[-1][4] = feedback.feedback_codecs['u_cmd'].decode(raw)[0]
             publish(raw)
         feedback.send_safe_command = recorded_send
         feedback.publisher.publish = recorded_publish
@@ -167,10 +177,15 @@ class FeedbackBench:
         self.clock.publish(message)
 
     def publish_estimate(self, values=ESTIMATE) -> int:
-        """Publish one x_hat with a new stamp; return the stamp."""
+        """Publish one x_hat (the controller: u and y) with a new stamp; return the stamp."""
         self.stamp_ns += round(STEP * NANOSECONDS)
         message = JointState(name=['x1', 'x2'], position=[float(v) for v in values])
         ns_to_stamp(message.header.stamp, self.stamp_ns)
+        if self.controller:
+            message.name, message.position = ['y1'], [float(values[0])]
+            applied = JointState(name=['u1'], position=[0.0])
+            ns_to_stamp(applied.header.stamp, self.stamp_ns)
+            self.u.publish(applied)
         self.cpu_wait_at = cpu_wait_ns()
         self.published_at = time.monotonic()
         self.x_hat.publish(message)
@@ -201,18 +216,18 @@ class FeedbackBench:
         ``at_outage()`` runs right after the last estimate's command arrived.
         """
         feedback = self.feedback
-        stale = feedback.counters['stale']
+        stale = feedback.command_counters['stale']
         self.run_estimates()
         published, cpu_wait = self.published_at, self.cpu_wait_at
         if at_outage is not None:
             at_outage()
-        assert spin_until(self.executor, lambda: feedback.counters['stale'] > stale,
+        assert spin_until(self.executor, lambda: feedback.command_counters['stale'] > stale,
                           TIMEOUT + DELIVERY, self.tick), 'no outage after the last estimate'
         # The outage's first safe command, sent on going stale; the one outage came after the
         # last estimate, none while they came every STEP.
         sent_ns, accepted_ns, cpu_wait_then, _, stamp = next(
             sent for sent in self.safe_sent if sent[3] == stale + 1)
-        assert feedback.counters['stale'] == stale + 1 and (
+        assert feedback.command_counters['stale'] == stale + 1 and (
             accepted_ns == feedback.last_estimate_ns), 'an outage while estimates were arriving'
         assert spin_until(self.executor, lambda: self.received(stamp), DELIVERY, self.tick), (
             'the safe command never arrived')
@@ -242,11 +257,11 @@ def bench_factory():
     """Yield a function building a :class:`FeedbackBench` in a private context."""
     made = []
 
-    def build(executor, sim_time=False, **values):
+    def build(executor, sim_time=False, controller=False, **values):
         context_manager = ros_context('--params-file', str(SEED003))
         context = context_manager.__enter__()
         made.append(context_manager)
-        bench = FeedbackBench(context, executor, sim_time, **values)
+        bench = FeedbackBench(context, executor, sim_time, controller, **values)
         made.append(bench)
         return bench
 
@@ -272,9 +287,13 @@ def assert_within_promise(delays, timeout: float = TIMEOUT) -> None:
         assert sent <= timeout + WATCHDOG_MARGIN + waited, text
 
 
+@pytest.mark.parametrize('controller', [False, True], ids=['state_feedback',
+                                                          'observer_controller'])
 @pytest.mark.parametrize('executor', EXECUTORS)
-def test_first_safe_command_within_the_promised_bound_then_repeated(bench_factory, executor):
-    bench = bench_factory(executor)
+def test_first_safe_command_within_the_promised_bound_then_repeated(bench_factory, executor,
+                                                                   controller):
+    # The observer-controller's watchdog waits for its own estimates (y stops).
+    bench = bench_factory(executor, controller=controller)
     delays, repeats = [], []
     for _ in range(5):
         delays.append(bench.outage_delay())
@@ -285,7 +304,7 @@ def test_first_safe_command_within_the_promised_bound_then_repeated(bench_factor
     assert_within_promise(delays)
     for stamps, waited in repeats:
         assert 8 - int(waited / SAFE_PERIOD) <= len(stamps) <= 11, (stamps, waited)
-    assert bench.feedback.counters['stale'] == 5
+    assert bench.feedback.command_counters['stale'] == 5
     # x_hat back: the commands resume at once and the repeats stop.
     count = len(bench.commands)
     bench.run_estimates(count=3)
