@@ -28,7 +28,8 @@ import importlib.util
 import pytest
 
 from conftest import console_scripts, REPOSITORY
-from observer_ros.config import FEEDBACK, OBSERVER, PARAMETER_SPECS, PLANT, TOPIC_ROLES
+from observer_ros.config import (
+    COMBINED_NODES, CONTROLLER, FEEDBACK, OBSERVER, PARAMETER_SPECS, PLANT, TOPIC_ROLES)
 from observer_ros.ros.executors import EXECUTORS
 
 LAUNCH_FILES = sorted((REPOSITORY / 'launch').glob('*.launch.py'))
@@ -36,7 +37,8 @@ LAUNCH_PAGE = (REPOSITORY / 'doc' / 'lifecycle_and_launch.md').read_text(encodin
 
 #: The role (parameter and topic set) of each node executable.
 ROLES = {'plant_simulator': PLANT, 'observer': OBSERVER, 'observer_lifecycle': OBSERVER,
-         'state_feedback': FEEDBACK, 'state_feedback_lifecycle': FEEDBACK}
+         'state_feedback': FEEDBACK, 'state_feedback_lifecycle': FEEDBACK,
+         'observer_controller': CONTROLLER, 'observer_controller_lifecycle': CONTROLLER}
 
 
 def calls(tree, *names) -> list:
@@ -89,9 +91,10 @@ class LaunchSource:
 SOURCES = [pytest.param(LaunchSource(path), id=path.name) for path in LAUNCH_FILES]
 
 
-def test_both_launch_files_exist_and_setup_installs_them():
+def test_the_launch_files_exist_and_setup_installs_them():
     assert {path.name for path in LAUNCH_FILES} == {'closed_loop.launch.py',
-                                                    'observer.launch.py'}
+                                                    'observer.launch.py',
+                                                    'observer_controller.launch.py'}
     setup = (REPOSITORY / 'setup.py').read_text(encoding='utf-8')
     assert "('share/' + PACKAGE_NAME + '/launch', glob('launch/*.launch.py'))" in setup
 
@@ -138,7 +141,8 @@ def test_remapped_names_are_the_topics_of_the_node(source):
     remapped = {}
     for _, options in source.nodes:
         role = ROLES[options['executable'].value]
-        topics = {topic for topic, _, roles in TOPIC_ROLES if role in roles}
+        combined = {role, *COMBINED_NODES.get(role, ())}
+        topics = {topic for topic, _, roles in TOPIC_ROLES if combined.intersection(roles)}
         if 'remappings' not in options:
             continue
         for pair in source.resolve(options['remappings']).elts:

@@ -1,0 +1,68 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Launch the plant simulator and the one-process observer-controller with one parameter file.
+
+Two processes instead of three (``closed_loop.launch.py``): the estimate goes to the
+feedback law inside the controller, with no DDS hop. ``lifecycle:=true`` runs the managed
+``observer_controller_lifecycle``; it waits for ``ros2 lifecycle set`` unless
+``autostart:=true``. ``namespace:=robot1`` puts the loop, topics included, under ``/robot1``.
+"""
+
+from launch import LaunchDescription
+from launch.actions import DeclareLaunchArgument
+from launch.conditions import IfCondition, UnlessCondition
+from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
+from launch_ros.actions import LifecycleNode, Node
+from launch_ros.parameter_descriptions import ParameterValue
+from launch_ros.substitutions import FindPackageShare
+
+
+def generate_launch_description() -> LaunchDescription:
+    """Plant and controller sharing ``params_file`` (``/**: ros__parameters:``)."""
+    params_file = LaunchConfiguration('params_file')
+    namespace = LaunchConfiguration('namespace')
+    lifecycle = LaunchConfiguration('lifecycle')
+    sim_time = {'use_sim_time': ParameterValue(LaunchConfiguration('use_sim_time'),
+                                               value_type=bool)}
+    autostart = {'autostart': ParameterValue(LaunchConfiguration('autostart'), value_type=bool)}
+    common = [params_file, sim_time]
+    managed = [params_file, sim_time, autostart]
+    executor = ['--executor', LaunchConfiguration('executor')]
+    return LaunchDescription([
+        DeclareLaunchArgument(
+            'params_file', description='Parameter file shared by the plant and the controller.',
+            default_value=PathJoinSubstitution([FindPackageShare('observer_ros'), 'config',
+                                                'robot_joint.yaml'])),
+        DeclareLaunchArgument('namespace', default_value='',
+                              description='Namespace of both nodes and their topics.'),
+        DeclareLaunchArgument('use_sim_time', default_value='false', choices=['true', 'false'],
+                              description='Run on /clock (lockstep plant or a bag).'),
+        DeclareLaunchArgument('executor', default_value='events', choices=['events', 'single'],
+                              description='rclpy executor of both nodes.'),
+        DeclareLaunchArgument('lifecycle', default_value='false', choices=['true', 'false'],
+                              description='Run the managed (lifecycle) observer-controller.'),
+        DeclareLaunchArgument('autostart', default_value='false', choices=['true', 'false'],
+                              description='With lifecycle:=true, configure and activate it at '
+                              'start.'),
+        Node(package='observer_ros', executable='plant_simulator', name='plant_simulator',
+             namespace=namespace, parameters=common, arguments=executor, output='screen'),
+        Node(package='observer_ros', executable='observer_controller',
+             name='observer_controller', namespace=namespace, parameters=common,
+             arguments=executor, output='screen', condition=UnlessCondition(lifecycle)),
+        LifecycleNode(package='observer_ros', executable='observer_controller_lifecycle',
+                      name='observer_controller', namespace=namespace, parameters=managed,
+                      arguments=executor, output='screen', condition=IfCondition(lifecycle)),
+    ])
