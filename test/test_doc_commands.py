@@ -72,7 +72,7 @@ PIP_SETUP = ('./scripts/demo.sh', 'source scripts/setup_env.sh', 'source .venv/b
 
 #: Console scripts that run until they are stopped: started, let come up, stopped.
 NODES = ('observer', 'state_feedback', 'plant_simulator', 'observer_lifecycle',
-         'state_feedback_lifecycle')
+         'state_feedback_lifecycle', 'observer_controller', 'observer_controller_lifecycle')
 
 #: What a checkout holds that the pages' commands use.
 CHECKOUT = ('config', 'launch', 'scripts', 'benchmarks', 'requirements.txt', 'setup.py',

@@ -58,7 +58,10 @@ from observer_ros.ros.run import run_node
 
 
 def _poles_text(poles) -> str:
-    return '[' + ', '.join(f'{complex(p):.4g}'.strip('()') for p in poles) + ']'
+    """``[-9, -8, -3+4j, -3-4j]``: real poles as numbers, 4 significant digits."""
+    texts = [f'{p.real:.4g}' if p.imag == 0 else f'{p:.4g}'.strip('()')
+             for p in (complex(pole) for pole in poles)]
+    return '[' + ', '.join(texts) + ']'
 
 
 class ObserverControllerWiring(ObserverWiring, FeedbackCommands):
