@@ -152,6 +152,20 @@ def closed_loop_record(name: str, controller: bool = False, extra=()) -> dict:
             loop.destroy()
 
 
+def assert_records_equal(found: dict, golden: dict) -> None:
+    """Every array of ``golden`` is in ``found`` with the same dtype, shape and bytes."""
+    assert sorted(found) == sorted(golden)
+    for key, expected in golden.items():
+        value = np.asarray(found[key])
+        assert value.shape == expected.shape, key
+        if expected.dtype.kind == 'U':
+            assert str(value) == str(expected), key
+            continue
+        assert value.dtype == expected.dtype, key
+        assert value.tobytes() == expected.tobytes(), (
+            key, float(np.max(np.abs(value - expected))) if value.size else None)
+
+
 def replay_record(name: str) -> dict:
     """Replay a config's golden bag; return the estimates, innovations and counters."""
     from observer_ros.bags.replay import replay_bag

@@ -27,22 +27,8 @@ import pytest
 
 from conftest import console_script
 from golden_support import (
-    CLOSED_LOOP_CONFIGS, closed_loop_record, design_json, GOLDEN_DIR, load_npz, replay_cases,
-    replay_record, SHIPPED_CONFIGS)
-
-
-def assert_records_equal(found: dict, golden: dict) -> None:
-    """Every array of ``golden`` is in ``found`` with the same dtype, shape and bytes."""
-    assert sorted(found) == sorted(golden)
-    for key, expected in golden.items():
-        value = np.asarray(found[key])
-        assert value.shape == expected.shape, key
-        if expected.dtype.kind == 'U':
-            assert str(value) == str(expected), key
-            continue
-        assert value.dtype == expected.dtype, key
-        assert value.tobytes() == expected.tobytes(), (
-            key, float(np.max(np.abs(value - expected))) if value.size else None)
+    assert_records_equal, CLOSED_LOOP_CONFIGS, closed_loop_record, design_json, GOLDEN_DIR,
+    load_npz, replay_cases, replay_record, SHIPPED_CONFIGS)
 
 
 @pytest.mark.parametrize('config', SHIPPED_CONFIGS)

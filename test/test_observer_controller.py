@@ -22,15 +22,14 @@ same estimates. With ``controller.input: command`` (no ``u`` topic) the commands
 too, since the plant applies what the controller sent from the next sample on.
 """
 
-import numpy as np
 import pytest
 
-from golden_support import CLOSED_LOOP_CONFIGS, closed_loop_record, GOLDEN_DIR, load_npz
-from observer_ros.config import CONTROLLER, node_parameters, OBSERVER, FEEDBACK
+from golden_support import (
+    assert_records_equal, CLOSED_LOOP_CONFIGS, closed_loop_record, GOLDEN_DIR, load_npz)
+from observer_ros.config import CONTROLLER, FEEDBACK, node_parameters, OBSERVER
 from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.nodes.observer_controller import ObserverControllerNode
 from ros_support import overrides, ros_context
-from test_golden_outputs import assert_records_equal
 
 CONFIG_DIR = GOLDEN_DIR.parents[1] / 'config'
 

@@ -287,11 +287,11 @@ def assert_within_promise(delays, timeout: float = TIMEOUT) -> None:
         assert sent <= timeout + WATCHDOG_MARGIN + waited, text
 
 
-@pytest.mark.parametrize('controller', [False, True], ids=['state_feedback',
-                                                          'observer_controller'])
+@pytest.mark.parametrize('controller', [False, True],
+                         ids=['state_feedback', 'observer_controller'])
 @pytest.mark.parametrize('executor', EXECUTORS)
-def test_first_safe_command_within_the_promised_bound_then_repeated(bench_factory, executor,
-                                                                   controller):
+def test_first_safe_command_within_the_promised_bound_then_repeated(
+        bench_factory, executor, controller):
     # The observer-controller's watchdog waits for its own estimates (y stops).
     bench = bench_factory(executor, controller=controller)
     delays, repeats = [], []

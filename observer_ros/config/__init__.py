@@ -39,7 +39,8 @@ from observer_ros.config.observer import JointStateSelection, ObserverSetup
 from observer_ros.config.plant import PlantSettings
 from observer_ros.config.schema import (
     ALL_NODES, COMBINED_NODES, CONTROLLER, CONTROLLER_INPUTS, COVARIANCE_LIMIT, FEEDBACK,
-    JOINT_STATE_FIELDS, MESSAGE_TYPES, node_parameters, OBSERVER, OBSERVER_ARGUMENTS, PARAMETER_SPECS, parameter_table,
+    JOINT_STATE_FIELDS, MESSAGE_TYPES, node_parameters, OBSERVER, OBSERVER_ARGUMENTS,
+    PARAMETER_SPECS, parameter_table,
     PARAMETERS, ParameterSpec, PLANT, ROS_PARAMETERS, TOPIC_ROLES, TOPICS, VALUE_LIMIT)
 from observer_ros.config.sections import Binding, complete_parameters, Sections, TopicSettings
 from observer_ros.core.arguments import (

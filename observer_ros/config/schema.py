@@ -387,7 +387,8 @@ OBSERVER_ARGUMENTS = {argument.name: f'observer.{argument.name}'
 PARAMETERS = (MODEL + OBSERVER_STREAM
               + tuple(_on(_OBS, argument, OBSERVER_ARGUMENTS[argument.name])
                       for argument in observer_arguments())
-              + FEEDBACK_PARAMETERS + CONTROLLER_PARAMETERS + LIFECYCLE_PARAMETERS + PLANT_PARAMETERS + DIAGNOSTICS
+              + FEEDBACK_PARAMETERS + CONTROLLER_PARAMETERS + LIFECYCLE_PARAMETERS
+              + PLANT_PARAMETERS + DIAGNOSTICS
               + tuple(spec for role in TOPIC_ROLES for spec in _topic_parameters(*role)))
 
 PARAMETER_SPECS = {spec.name: spec for spec in PARAMETERS}

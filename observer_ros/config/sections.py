@@ -318,7 +318,7 @@ class FeedbackSection(Section):
 class ControllerSection(Section):
     """``controller.*``: what only the one-process observer-controller has."""
 
-    input: str = bound('controller.input')
+    input_source: str = bound('controller.input')
 
 
 @dataclass(frozen=True)

@@ -77,7 +77,7 @@ class ObserverControllerWiring(ObserverWiring, FeedbackCommands):
     def build(self, system) -> None:
         """Make the law and ``u_cmd`` first, then the observer's stream and topics."""
         self.vet_feedback(system)
-        self.commands_as_input = system.sections.controller.input == 'command'
+        self.commands_as_input = system.sections.controller.input_source == 'command'
         self.build_feedback(system)
         self.sent = system.feedback.safe_command
         ObserverWiring.build(self, system)
