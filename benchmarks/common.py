@@ -24,6 +24,10 @@ import numpy as np
 REPOSITORY = Path(__file__).resolve().parents[1]
 CONFIG_DIR = REPOSITORY / 'config'
 
+#: Lengths of the timed real-time runs, set by ``benchmarks.run`` (``--runs``,
+#: ``--seconds``, ``--rates``); a section takes its own defaults for what is not given.
+RUN_LENGTH: dict = {}
+
 
 @dataclass
 class Section:

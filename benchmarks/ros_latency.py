@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-4. ROS latency: a ``y`` publish to its ``x_hat``, against a raw and a plain relay.
+4. ROS latency: a ``y`` publish to its ``x_hat`` (and to its ``u_cmd``), against relays.
 
 The observer node, a raw relay (subscribe ``y`` serialized, publish the same bytes: the
 floor of rclpy's transport) and a plain relay (subscribe ``y``, copy the JointState,
@@ -23,7 +23,9 @@ both ways and each node has answered once, then pings them in turn, one message 
 at a time, and takes the time from its publish to the answer with the same stamp. As in a
 closed loop, the probe sends the command ``u`` stamped like ``y`` after the estimate arrived
 (the estimate for the next ``y`` needs it), outside the timed window; every ping starts
-after the same idle gap, so the observer has taken that ``u`` before its next ``y``.
+after the same idle gap, so the observer has taken that ``u`` before its next ``y``. The
+observer-controller (the same observer and a state feedback, ``controller.input: command``,
+its estimate topics remapped away) answers each ``y`` with ``u_cmd``.
 """
 
 import os
@@ -40,7 +42,7 @@ from rclpy.node import Node
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
 
-from benchmarks.common import CONFIG_DIR, pyplot, REPOSITORY, Section
+from benchmarks.common import CONFIG_DIR, pyplot, REPOSITORY, RUN_LENGTH, Section
 from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.executors import EXECUTORS
 from observer_ros.ros.messages import ns_to_stamp
@@ -54,8 +56,16 @@ TARGETS = {
                                                 'relay:=raw_relay')),
     'relay': ('relay_in', 'relay', ('-r', 'y:=relay_in')),
     'x_hat': ('y', 'observer', ()),
+    'u_cmd': ('controller_in', 'observer_controller', (
+        '-r', 'y:=controller_in', '-r', 'x_hat:=controller_x_hat', '-r',
+        'innovation:=controller_innovation', '-p', 'controller.input:=command', '-p',
+        "feedback.poles:=['-2+1j', '-2-1j', '-3', '-4']")),
 }
-LABELS = {'raw_relay': 'raw relay', 'relay': 'plain relay', 'x_hat': 'observer'}
+LABELS = {'raw_relay': 'raw relay', 'relay': 'plain relay', 'x_hat': 'observer',
+          'u_cmd': 'controller'}
+
+#: The package's nodes against the raw relay: answer topic -> label of the ratios.
+MEASURED = {'x_hat': 'observer', 'u_cmd': 'controller'}
 
 #: Idle time before every ping (s), and how long a ping waits for its answer (s).
 GAP = 0.001
@@ -199,37 +209,45 @@ def percentile(values: np.ndarray, q: float) -> float:
 def run(smoke: bool, figures) -> Section:
     """Measure and return the section."""
     rounds, warm_up = (10, 5) if smoke else (3000, 50)
-    section = Section(4, 'ROS latency: y to x_hat against a raw relay',
-                      f'observer p50 within {GOAL_P50}x and p99 within {GOAL_P99}x those of '
-                      'the raw relay (the floor of rclpy transport), same executor and QoS')
+    rounds = RUN_LENGTH.get('rounds') or rounds
+    section = Section(4, 'ROS latency: y to x_hat and to u_cmd against a raw relay',
+                      f'observer (y to x_hat) and observer-controller (y to u_cmd) p50 within '
+                      f'{GOAL_P50}x and p99 within {GOAL_P99}x those of the raw relay (the '
+                      'floor of rclpy transport), same executor and QoS')
     results = {name: measure(name, rounds, warm_up) for name in EXECUTORS}
     rows, ratios = [], {}
     for name, values in results.items():
-        observer, raw = values['x_hat'], values['raw_relay']
-        ratios[name] = (percentile(observer, 50) / percentile(raw, 50),
-                        percentile(observer, 99) / percentile(raw, 99))
+        raw = values['raw_relay']
+        ratios[name] = {target: (percentile(values[target], 50) / percentile(raw, 50),
+                                 percentile(values[target], 99) / percentile(raw, 99))
+                        for target in MEASURED}
         rows.append([name, *(f'{percentile(values[t], q):.0f}' for t in TARGETS
                              for q in (50, 99)),
-                     f'{ratios[name][0]:.2f}', f'{ratios[name][1]:.2f}',
+                     *(f'{ratios[name][t][i]:.2f}' for t in MEASURED for i in (0, 1)),
                      int(sum(np.isnan(v).sum() for v in values.values()))])
     fastest = min(results, key=lambda name: percentile(results[name]['x_hat'], 50))
     section.add(f'{rounds} round trips per node and executor (after {warm_up} warm-up rounds '
-                'and once every endpoint answered), one message in flight, the three nodes '
-                f'pinged in rotating order after {GAP * 1e3:g} ms idle each; fourth-order '
-                'observer (seed 001); each node in its own process, the probe in another. '
-                'Microseconds, probe publish to probe callback (both ways through DDS).', '')
+                f'and once every endpoint answered), one message in flight, the {len(TARGETS)} '
+                f'nodes pinged in rotating order after {GAP * 1e3:g} ms idle each; '
+                'fourth-order observer (seed 001; the controller with feedback poles -2+-1j, '
+                '-3, -4); each node in its own process, the probe in another. Microseconds, '
+                'probe publish to probe callback (both ways through DDS).', '')
     section.table(['executor', *(f'{LABELS[t]} {q}' for t in TARGETS for q in ('p50', 'p99')),
-                   'observer / raw p50', 'observer / raw p99', 'lost'], rows)
+                   *(f'{label} / raw {q}' for label in MEASURED.values()
+                     for q in ('p50', 'p99')), 'lost'], rows)
     section.add(f'Fastest executor for the observer: **{fastest}**; the nodes spin '
                 f'**{EXECUTORS[0]}** unless given `--executor`. The raw relay republishes the '
                 'bytes it receives (no message objects): what is left is rclpy and DDS. The '
                 'observer also reads and writes CDR bytes, and on top decodes `y`, runs the '
-                'estimator and publishes `x_hat` and `innovation`. The plain relay builds '
-                'message objects both ways as an ordinary rclpy node does. The '
-                'MultiThreadedExecutor is not offered (see '
+                'estimator and publishes `x_hat` and `innovation`. The observer-controller '
+                'decodes `y`, runs the estimator and the feedback law and publishes `u_cmd` '
+                'first, then `x_hat` and `innovation`: its row is the latency from a '
+                'measurement to the command, which the two nodes pay twice through DDS. The '
+                'plain relay builds message objects both ways as an ordinary rclpy node does. '
+                'The MultiThreadedExecutor is not offered (see '
                 '`observer_ros.ros.executors.EXECUTORS`).', '')
-    p50, p99 = ratios[EXECUTORS[0]]
-    section.met = bool(p50 <= GOAL_P50 and p99 <= GOAL_P99)
+    section.met = all(p50 <= GOAL_P50 and p99 <= GOAL_P99
+                      for p50, p99 in ratios[EXECUTORS[0]].values())
     plt = pyplot()
     figure, axis = plt.subplots(figsize=(8, 3.5))
     data, labels = [], []

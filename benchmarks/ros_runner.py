@@ -16,8 +16,8 @@
 Spin a node of benchmarks 4 and 5 on a chosen executor.
 
 ``python -m benchmarks.ros_runner KIND [--executor NAME] --ros-args ...``, ``KIND`` one of
-``observer``, ``relay``, ``raw_relay`` (benchmark 4), ``state_feedback`` and
-``plant_simulator`` (benchmark 5; the package's own nodes, so that no installed console
+``observer``, ``relay``, ``raw_relay``, ``observer_controller`` (benchmark 4),
+``state_feedback`` and ``plant_simulator`` (benchmark 5; the package's own nodes, so that no installed console
 script has to be found: the same code runs from a pip set-up and a colcon workspace).
 """
 
@@ -27,6 +27,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from observer_ros.nodes.observer import ObserverNode
+from observer_ros.nodes.observer_controller import ObserverControllerNode
 from observer_ros.nodes.plant_simulator import plant_done, PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.qos import publisher_qos, subscription_qos
@@ -63,7 +64,8 @@ class RawRelay(Node):
 
 #: What ``python -m benchmarks.ros_runner KIND`` spins.
 NODES = {'observer': ObserverNode, 'relay': Relay, 'raw_relay': RawRelay,
-         'state_feedback': StateFeedbackNode, 'plant_simulator': PlantSimulatorNode}
+         'state_feedback': StateFeedbackNode, 'plant_simulator': PlantSimulatorNode,
+         'observer_controller': ObserverControllerNode}
 
 
 def main() -> int:

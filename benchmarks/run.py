@@ -32,7 +32,7 @@ import sys
 import time
 import warnings
 
-from benchmarks.common import Figures, REPOSITORY
+from benchmarks.common import Figures, REPOSITORY, RUN_LENGTH
 
 #: Section number -> module.
 SECTIONS = {1: 'design', 2: 'update', 3: 'throughput', 4: 'ros_latency', 5: 'closed_loop',
@@ -71,7 +71,19 @@ def main(args=None) -> int:
     parser.add_argument('--output', default=str(REPOSITORY), metavar='DIR',
                         help='where BENCHMARKS.md and benchmarks/figures/ go (default: the '
                         'repository)')
+    parser.add_argument('--runs', type=int, metavar='N',
+                        help='section 5: runs per rate and set-up, the worst shown (default 5; '
+                        '1 with --smoke)')
+    parser.add_argument('--seconds', type=float, metavar='S',
+                        help='section 5: seconds per real-time run (default 2)')
+    parser.add_argument('--rates', type=float, nargs='+', metavar='HZ',
+                        help='section 5: plant rates (default 100 250 500 1000 2000)')
+    parser.add_argument('--rounds', type=int, metavar='N',
+                        help='section 4: round trips per node and executor (default 3000)')
     options = parser.parse_args(args)
+    RUN_LENGTH.update({key: getattr(options, key) for key in ('runs', 'seconds', 'rates',
+                                                             'rounds')
+                       if getattr(options, key) is not None})
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     os.environ.setdefault('MPLBACKEND', 'Agg')
     warnings.simplefilter('ignore')
