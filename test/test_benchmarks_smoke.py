@@ -22,9 +22,10 @@ from conftest import REPOSITORY
 
 
 def test_smoke_run_writes_every_section_and_figure(tmp_path):
-    result = subprocess.run([sys.executable, '-m', 'benchmarks.run', '--smoke', '--output',
-                             str(tmp_path)], cwd=REPOSITORY, capture_output=True, text=True,
-                            timeout=300)
+    # The options that shorten the real-time runs, at the smoke sizes.
+    result = subprocess.run([sys.executable, '-m', 'benchmarks.run', '--smoke', '--runs', '1',
+                             '--seconds', '0.5', '--rounds', '10', '--output', str(tmp_path)],
+                            cwd=REPOSITORY, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr[-2000:]
     report = (tmp_path / 'BENCHMARKS.md').read_text(encoding='utf-8')
     headings = re.findall(r'^## (\d)\. ', report, flags=re.MULTILINE)
@@ -34,6 +35,12 @@ def test_smoke_run_writes_every_section_and_figure(tmp_path):
     assert len(figures) == 6
     for figure in figures:
         assert (tmp_path / figure).stat().st_size > 1000, figure
+    # The controller's latency row and the set-ups of the closed loop, worst run shown.
+    assert '| controller p50 | controller p99 |' in report
+    assert '0.5 s per run, 1 run per rate' in report
+    for setup in ('one process, controller', 'two processes', 'three processes'):
+        for executor in ('single', 'events'):
+            assert f'{setup}, {executor} |' in report, (setup, executor)
     # Every table row is complete: no section lost its numbers.
     for line in report.splitlines():
         if line.startswith('| ') and 'design refused' not in line:
