@@ -120,8 +120,6 @@ class ObserverControllerWiring(ObserverWiring, FeedbackCommands):
         stamp, y = self._decode('y', message)
         if y is None:
             return
-        if self.commands_as_input:  # the command in effect from this sample on
-            self._run(self.stream.add_input, stamp, self.sent)
         if self.law.integral is not None:
             values = np.asarray(y, dtype=float)
             if within_limit(values, self.feedback_limits['y']):
@@ -130,9 +128,18 @@ class ObserverControllerWiring(ObserverWiring, FeedbackCommands):
                   time.monotonic_ns())
 
     def _publish(self, samples) -> None:
+        applied = []  # (stamp, the command in effect from that sample on)
         for sample in samples:  # u_cmd first: the plant waits for it
+            applied.append((sample.stamp_ns, self.sent))
             self.sent = self.command_for(sample.stamp_ns, sample.estimate)
         ObserverWiring._publish(self, samples)
+        if self.commands_as_input:
+            # The input of the interval after each estimate, for the next prediction: given
+            # once the estimate is out, so the stream prepares the next step with it.
+            for stamp, command in applied:
+                released = self.stream.add_input(stamp, command)
+                if released:
+                    self._publish(released)
 
     def send_safe_command(self) -> None:
         """Publish ``feedback.safe_command`` once (it is the input in effect from now on)."""
