@@ -189,21 +189,24 @@ class FeedbackCommands:
         or beyond ``topics.u_cmd.limit`` is replaced by ``feedback.safe_command``.
         """
         self.last_estimate_ns = time.monotonic_ns()
+        stamp = stamp or self._now_stamp()
+        computed = command = self.law.command(estimate, self.reference, stamp)
+        unsafe = not within_limit(command, self.feedback_limits['u_cmd'])
+        if unsafe:
+            command = self.system.feedback.safe_command
+        self.publisher.publish(self.feedback_codecs['u_cmd'].encode(stamp, command))
+        # The bookkeeping after the command is out (nothing runs in between).
         self.watchdog.reset()
         if self.stale:
             self.stale = False
             self.repeat_timer.cancel()
             self.get_logger().info(f'{self.STALE_INPUT} is back: state feedback resumed')
-        stamp = stamp or self._now_stamp()
-        command = self.law.command(estimate, self.reference, stamp)
-        if not within_limit(command, self.feedback_limits['u_cmd']):
+        if unsafe:
             self.command_counters['unsafe_command'] += 1
-            self.warn_once('unsafe command', f'the command {command.tolist()} is non-finite or '
+            self.warn_once('unsafe command', f'the command {computed.tolist()} is non-finite or '
                            f'beyond topics.u_cmd.limit = {self.feedback_limits["u_cmd"]:g}: '
                            f'published feedback.safe_command instead')
-            command = self.system.feedback.safe_command
         self.command_counters['commands'] += 1
-        self.publisher.publish(self.feedback_codecs['u_cmd'].encode(stamp, command))
         return command
 
     def integrate_measurement(self, stamp, y) -> None:
