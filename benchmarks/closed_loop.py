@@ -79,7 +79,7 @@ def one_process(rate: float, seconds: float, lockstep: bool = False,
 
 def processes(rate: float, seconds: float, executor: str = 'events',
               nodes=('observer', 'state_feedback')) -> float:
-    """The plant and ``nodes`` as processes; the on-time fraction."""
+    """Run the plant and ``nodes`` as processes; return the on-time fraction."""
     samples = int(rate * seconds)
     common = ['--executor', executor, '--ros-args', '--params-file', str(CONFIG)]
     runner = [sys.executable, '-m', 'benchmarks.ros_runner']
@@ -141,7 +141,7 @@ def run(smoke: bool, figures) -> Section:
             for i, rate in enumerate(rates)]
     section.add(f'seed 003 (full-order observer and state feedback), {seconds:g} s per run, '
                 f'{runs} run{"s" if runs > 1 else ""} per rate, set-up and executor; the worst '
-                'run\'s share of the samples (after the first command) that applied the '
+                "run's share of the samples (after the first command) that applied the "
                 'command computed from the previous sample. One process: `closed_loop` (the '
                 'three nodes on one executor; "controller": the plant and the '
                 'observer-controller). Two processes: the plant and `observer_controller`. '

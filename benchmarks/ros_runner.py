@@ -17,8 +17,9 @@ Spin a node of benchmarks 4 and 5 on a chosen executor.
 
 ``python -m benchmarks.ros_runner KIND [--executor NAME] --ros-args ...``, ``KIND`` one of
 ``observer``, ``relay``, ``raw_relay``, ``observer_controller`` (benchmark 4),
-``state_feedback`` and ``plant_simulator`` (benchmark 5; the package's own nodes, so that no installed console
-script has to be found: the same code runs from a pip set-up and a colcon workspace).
+``state_feedback`` and ``plant_simulator`` (benchmark 5; the package's own nodes, so that no
+installed console script has to be found: the same code runs from a pip set-up and a colcon
+workspace).
 """
 
 import sys

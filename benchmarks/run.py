@@ -81,8 +81,8 @@ def main(args=None) -> int:
     parser.add_argument('--rounds', type=int, metavar='N',
                         help='section 4: round trips per node and executor (default 3000)')
     options = parser.parse_args(args)
-    RUN_LENGTH.update({key: getattr(options, key) for key in ('runs', 'seconds', 'rates',
-                                                             'rounds')
+    lengths = ('runs', 'seconds', 'rates', 'rounds')
+    RUN_LENGTH.update({key: getattr(options, key) for key in lengths
                        if getattr(options, key) is not None})
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     os.environ.setdefault('MPLBACKEND', 'Agg')
