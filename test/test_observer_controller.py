@@ -62,11 +62,17 @@ def test_the_controller_declares_what_the_two_nodes_declare():
     assert system.plant is None and system.loop.closed_loop_poles is not None
 
 
-def test_the_closed_loop_poles_are_logged_and_on_the_diagnostics(caplog):
+def test_the_closed_loop_poles_are_logged_and_on_the_diagnostics(capfd):
     path = CONFIG_DIR / 'seed003_full_order.yaml'
     with ros_context('--params-file', str(path)) as context:
+        capfd.readouterr()
         node = ObserverControllerNode(context=context)
         try:
+            logged = [line for line in capfd.readouterr().err.splitlines()
+                      if '[observer_controller]: closed loop: ' in line]
+            assert len(logged) == 1 and logged[0].endswith(
+                'A - B K poles [-3-3j, -3+3j], observer poles [-8-6j, -8+6j]; together '
+                '[-8-6j, -8+6j, -3-3j, -3+3j]'), logged
             values = dict(node.health.configuration().values)
             loop = node.system.loop.closed_loop_poles
             assert len(loop) == (node.system.model.n_states
