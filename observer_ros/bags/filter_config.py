@@ -34,7 +34,6 @@ from observer_ros.app.run_report import write_atomically
 from observer_ros.config import (
     Configuration, flatten_parameters, load_parameter_file, validate_parameters)
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.flat_matrices import covariance_from_flat
 from observer_ros.core.observers.kalman import NAME as KALMAN_TYPE
 from observer_ros.core.observers.kalman.design import KalmanDesign
 from observer_ros.core.observers.kalman.estimator import KalmanStep
@@ -107,15 +106,12 @@ class KalmanSetup:
     @property
     def process_noise(self) -> np.ndarray:
         """``Q`` as configured, ``(n, n)`` (an intensity for a continuous model)."""
-        return covariance_from_flat('process_noise', self.system.parameters[PROCESS_NOISE],
-                                    self.model.n_states)
+        return self.system.observer.design.process_noise
 
     @property
     def measurement_noise(self) -> np.ndarray:
         """``R`` as configured, ``(p, p)``."""
-        return covariance_from_flat('measurement_noise',
-                                    self.system.parameters[MEASUREMENT_NOISE],
-                                    self.model.n_outputs)
+        return self.system.observer.design.measurement_noise
 
     def sampled_filter(self, period_ns: int) -> SampledFilter:
         """Return the steady-state filter over one period as ALS models it."""

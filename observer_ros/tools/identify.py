@@ -37,11 +37,9 @@ from observer_ros.app.parallel import add_worker_arguments, single_threaded_blas
 from observer_ros.app.run_report import fit_figure, HtmlReport, singular_values_figure
 from observer_ros.bags.filter_config import model_document, write_validated
 from observer_ros.bags.identification import HOLDOUT, Identification, identify_bags, SignalSpec
-from observer_ros.bags.storage import BagError
-from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.tuning.subspace import order_advice
 from observer_ros.signals import stops_on_signal
-from observer_ros.tools.outputs import checked_bags
+from observer_ros.tools.outputs import run_tool
 
 REPORT_NAME = 'identify'
 
@@ -158,25 +156,18 @@ def main(args=None) -> int:
 
 
 def _run(options) -> int:
-    try:
-        bags = checked_bags(options)
+    def compute(bags):
         inputs = [SignalSpec.parse(text) for text in options.inputs]
         outputs = [SignalSpec.parse(text) for text in options.outputs]
         with task_mapper(options.workers, options.dask) as mapper:
             result = identify_bags(bags, inputs, outputs, options.order, mapper, options.holdout,
                                    options.horizon, options.continuous)
-        text = summary(result, options.order)
-        if options.output:
-            write_validated(Path(options.output), model_text(result, text))
-    except (BagError, ConfigError, DesignError, ValueError, OSError) as e:
-        print(f'identify: error: {e}', file=sys.stderr)
-        return 2
-    print(text)
-    if options.output:
-        print(f'model: {options.output}')
-    if options.report:
-        print(f'report: {write_report(options.report, result, options.order, text)}')
-    return 0
+        return result, summary(result, options.order)
+
+    return run_tool(
+        'identify', options, compute,
+        lambda result, text: write_validated(Path(options.output), model_text(result, text)),
+        'model', lambda result, text: write_report(options.report, result, options.order, text))
 
 
 if __name__ == '__main__':
