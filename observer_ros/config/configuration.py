@@ -164,5 +164,7 @@ def validate_parameters(params: Mapping[str, Any], strict: bool = False,
     if designed is not None:
         observer = ObserverSetup.of(designed, sections, joint_state_selection(
             sections.observer.joint_states, model))
+        if observer is not None and observer.keeps_history:
+            observer.make_stream()  # the type asked about each source, once, at start-up
     return Configuration(sections, augmentation, sample_rate(sections, model)[0], observer,
                          feedback, plant, analyse_loop(augmentation, observer, feedback))
