@@ -431,13 +431,13 @@ def source_specs(name: str) -> tuple:
               'them, else stamped on arrival.', _OBS, choices=tuple(FIELD_MESSAGE_TYPES)),
         _spec(named('fields'), STRING_ARRAY, [], 'Field paths of the values, in the order '
               'of sources.<name>.outputs: angular_velocity.z, pose.pose.position.x, '
-              'pose.orientation.yaw (a quaternion\'s roll, pitch, yaw), <field>.<joint '
+              'pose.orientation.yaw (the roll, pitch, yaw of a quaternion), <field>.<joint '
               'name> for joint_state (velocity.left_wheel), data[<index>] for '
               'float64_multi_array, data for float64.', _OBS),
         _spec(named('outputs'), STRING_ARRAY, [], 'The model outputs (names, or 0-based '
               'indices) the fields carry, one per field; every output in exactly one '
               'source.', _OBS),
-        _values(named('measurement_noise'), 'Kalman: the source\'s block of R, k diagonal '
+        _values(named('measurement_noise'), 'Kalman: the block of R of the source, k diagonal '
                 'values or k x k row-major for its k outputs; given for every source or '
                 'none (then observer.measurement_noise).', _OBS),
         _seconds(named('latency'), 0.0, 'Fixed latency: each sample was taken this long '
@@ -446,7 +446,7 @@ def source_specs(name: str) -> tuple:
         _seconds(named('timeout'), 0.0, 'Seconds after its last sample at which the source '
                  'is reported stale; 0 (the default): never; else more than one sample '
                  'period (0 ... 3600).', 0.0, 3600.0, _OBS),
-        _spec(named('predict_only'), BOOL, False, 'When the source\'s outputs alone cannot '
+        _spec(named('predict_only'), BOOL, False, 'When the outputs of the source alone cannot '
               'correct the estimate (an unobservable subset for a steady-state Kalman filter '
               'or a full-order observer), its samples alone only move the estimate forward '
               'instead of the configuration being refused.', _OBS),

@@ -42,8 +42,8 @@ from typing import Any, Iterator, Mapping
 import numpy as np
 
 from observer_ros.config.schema import (
-    OBSERVER_ARGUMENTS, PARAMETER_SPECS, PARAMETERS, ROS_PARAMETERS, SOURCE_SETTINGS,
-    source_parameter, source_specs, topic_parameter, TOPIC_ROLES, TOPIC_SETTINGS)
+    OBSERVER_ARGUMENTS, PARAMETER_SPECS, PARAMETERS, ROS_PARAMETERS, source_parameter,
+    SOURCE_SETTINGS, source_specs, topic_parameter, TOPIC_ROLES, TOPIC_SETTINGS)
 from observer_ros.core.errors import ConfigError, DesignError
 
 #: Field metadata: the parameter a field is bound to, or the section a field holds.

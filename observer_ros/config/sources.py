@@ -182,3 +182,33 @@ def check_history(sections: Sections) -> int:
                           f'({number_text(section.max_gap)} s; beyond it the estimate starts '
                           f'again), got {number_text(section.history)}')
     return _ns(section.history)
+
+
+def check_input_fields(sections: Sections, model: StateSpaceModel) -> None:
+    """
+    Check ``topics.u.fields``: one valid field path of ``topics.u.type`` per input.
+
+    Raises
+    ------
+    ConfigError
+        ``topics.u.fields``: missing for ``twist``, of the wrong count, or a path the type
+        does not have (naming the path, the type and the fields it has).
+
+    """
+    settings = sections.topics['u']
+    parameter = 'topics.u.fields'
+    if not settings.fields:
+        if settings.type in FIELD_MESSAGE_TYPES and settings.type not in (
+                'joint_state', 'float64_multi_array'):
+            raise ConfigError(parameter, f'expected the {model.n_inputs} fields of '
+                              f'topics.u.type {settings.type} that hold the inputs '
+                              f'{list(model.input_names)} (for example linear.x, angular.z), '
+                              f'got none')
+        return
+    if len(settings.fields) != model.n_inputs:
+        raise ConfigError(parameter, f'expected {model.n_inputs} fields (one per input '
+                          f'{list(model.input_names)}), got {len(settings.fields)}')
+    try:
+        FieldReader(FIELD_MESSAGE_TYPES[settings.type], settings.fields)
+    except FieldPathError as e:
+        raise ConfigError(parameter, str(e)) from None
