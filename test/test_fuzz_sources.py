@@ -63,7 +63,7 @@ STAMP_KINDS = {'nanosec': 'malformed', 'negative': 'malformed', 'future': 'futur
 
 
 def parameters() -> dict:
-    """A one-state model seen by one output per source, each source on its own topic."""
+    """Return a one-state model seen by one output per source, each on its own topic."""
     params = {'model.A': [0.0], 'model.B': [], 'model.C': [1.0] * len(SOURCES),
               'model.output_names': SOURCES, 'observer.type': 'kalman',
               'observer.time_varying': True, 'observer.process_noise': [1.0],
