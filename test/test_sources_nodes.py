@@ -276,3 +276,68 @@ def test_an_early_stamped_outlier_does_not_silence_the_genuine_samples():
     assert len(meanwhile) >= 40
     assert stamps[-10:] == [start + k * period for k in range(50, 60)] and all(
         math.isfinite(value) for _, values in received for value in values)
+
+
+def test_the_sources_status_reports_each_source_and_a_stale_one_warns():
+    from geometry_msgs.msg import PoseStamped
+    from observer_ros.nodes.observer_lifecycle import ObserverLifecycleNode
+    from ros_support import DiagnosticsListener
+    settings = {**BASE, 'diagnostics.period': 0.1, 'sources.camera.timeout': 0.3,
+                'sources.wheels.topic': 'joint_states', 'sources.camera.topic': 'pose',
+                'autostart': True}
+    parameters = [Parameter(name, value=value) for name, value in settings.items()]
+    with ros_context() as context:
+        # The managed twin: the same wiring, made on configure (autostart).
+        observer = ObserverLifecycleNode(context=context, parameter_overrides=parameters)
+        listener = DiagnosticsListener(context=context)
+        driver = Node('sources_driver', context=context)
+        wheels = driver.create_publisher(JointState, 'joint_states', 10)
+        camera = driver.create_publisher(PoseStamped, 'pose', 10)
+        estimates = []
+        driver.create_subscription(JointState, 'x_hat', estimates.append, 100)
+        name = '/observer: sources'
+        with executor_with(context, observer, listener, driver) as executor:
+            assert spin_until(executor, lambda: wheels.get_subscription_count() > 0
+                              and camera.get_subscription_count() > 0
+                              and driver.count_publishers('x_hat') > 0, 10.0)
+            start = observer.get_clock().now().nanoseconds
+            for k in range(10):
+                stamp = start + k * 10_000_000
+                message = JointState(name=['wheel'], velocity=[0.5], position=[0.0])
+                ns_to_stamp(message.header.stamp, stamp)
+                wheels.publish(message)
+                assert spin_until(executor, lambda: len(estimates) > k, 5.0)
+            pose = PoseStamped()
+            ns_to_stamp(pose.header.stamp, start + 30_000_000)  # 50 ms latency: at -20 ms
+            pose.pose.position.x = 0.01
+            camera.publish(pose)
+            assert spin_until(executor, lambda: len(estimates) > 10, 5.0)
+            # Taken 20 ms before the first wheel sample: inserted before it, every wheel
+            # sample taken again.
+            assert spin_until(executor, lambda: (listener.latest(name) or (0, 0, {}))[2].get(
+                'camera.reruns') == '1', 5.0)
+            ns_to_stamp(pose.header.stamp, start - 250_000_000)  # 0.34 s before the newest
+            camera.publish(pose)
+            assert spin_until(executor, lambda: listener.latest(name)[2].get(
+                'camera.too_old') == '1', 5.0)
+            level, message, values = listener.latest(name)
+            assert values['wheels.received'] == '10' and values['wheels.used'] == '10'
+            assert values['camera.received'] == '2' and values['camera.max_lag_s'] == '0.11'
+            assert int(values['history.entries']) >= 10
+            # No camera sample for its timeout (0.3 s): the source is stale, the status warns.
+            assert spin_until(executor, lambda: listener.level_is(
+                name, 'WARN', text='source camera stale'), 5.0)
+            # The corrected newest estimate was published with the newest stamp again.
+            assert estimates[10].header.stamp == estimates[9].header.stamp
+
+
+def test_the_replay_command_takes_a_configuration_of_sources(tmp_path, capsys):
+    from observer_ros.tools.replay import main as replay_main
+    bag = tmp_path / 'base'
+    write_wheeled_bag(bag, samples=40)
+    csv = tmp_path / 'estimates.csv'
+    assert replay_main([str(bag), str(CONFIG), '--u-topic', '/cmd_vel', '--csv', str(csv)]) == 0
+    out = capsys.readouterr().out
+    # 40 wheel, 20 IMU and 7 pose samples; one estimate each (new, or corrected).
+    assert 'replayed 67 measurements into 67 estimates' in out and 'too_old' not in out
+    assert len(csv.read_text().splitlines()) == 68
