@@ -429,25 +429,29 @@ class TopicSettings:
         return self.type == 'joint_state'
 
 
-class TopicsSection(Mapping):
+class SettingsByName(Mapping):
+    """A section kept by name (a topic, a source): a read-only mapping of its settings."""
+
+    def __init__(self, settings: Mapping[str, Any]) -> None:
+        self._settings = dict(settings)
+
+    def __getitem__(self, name: str) -> Any:
+        return self._settings[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._settings)
+
+    def __len__(self) -> int:
+        return len(self._settings)
+
+
+class TopicsSection(SettingsByName):
     """
     ``topics.*``: :class:`TopicSettings` by topic (``topics['y'].limit``), every vector topic.
 
     Its parameters are :func:`~observer_ros.config.schema.topic_parameter` of each topic of
     :data:`~observer_ros.config.schema.TOPIC_ROLES` and each setting.
     """
-
-    def __init__(self, topics: Mapping[str, TopicSettings]) -> None:
-        self._topics = dict(topics)
-
-    def __getitem__(self, topic: str) -> TopicSettings:
-        return self._topics[topic]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._topics)
-
-    def __len__(self) -> int:
-        return len(self._topics)
 
     @classmethod
     def parameter_names(cls) -> tuple:
@@ -504,7 +508,7 @@ class SourceSettings:
         return source_parameter(self.name, setting)
 
 
-class SourcesSection(Mapping):
+class SourcesSection(SettingsByName):
     """
     ``sources.<name>.*``: :class:`SourceSettings` by name, in ``observer.sources`` order.
 
@@ -512,18 +516,6 @@ class SourcesSection(Mapping):
     for each name (:func:`~observer_ros.config.schema.source_specs`), so the section binds
     none of the schema's own.
     """
-
-    def __init__(self, sources: Mapping[str, SourceSettings]) -> None:
-        self._sources = dict(sources)
-
-    def __getitem__(self, name: str) -> SourceSettings:
-        return self._sources[name]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._sources)
-
-    def __len__(self) -> int:
-        return len(self._sources)
 
     @classmethod
     def parameter_names(cls) -> tuple:
