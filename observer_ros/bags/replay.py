@@ -79,7 +79,9 @@ def _clock(data: TopicData) -> str:
 
 
 def check_time_bases(outputs: TopicData, inputs: TopicData, max_gap_ns: int, bag: str = '',
-                     y_topic: str = 'y', u_topic: str = 'u') -> None:
+                     y_topic: str = 'y', u_topic: str = 'u',
+                     log_time_advice: str = 'replay with log times for both (replay '
+                     '--use-log-time, replay_bag(..., use_log_time=True))') -> None:
     """
     Refuse measurements and inputs stamped in different time bases.
 
@@ -105,8 +107,7 @@ def check_time_bases(outputs: TopicData, inputs: TopicData, max_gap_ns: int, bag
     """
     if not len(outputs.stamps_ns) or not len(inputs.stamps_ns):
         return
-    advice = (f'stamp {u_topic} in the clock of {y_topic}, or replay with log times for both '
-              f'(replay --use-log-time, replay_bag(..., use_log_time=True))')
+    advice = f'stamp {u_topic} in the clock of {y_topic}, or {log_time_advice}'
     prefix = f'{bag}: ' if bag else ''
     # At most TIME_BASE_SAMPLES inputs, evenly spread, each against the measurement logged
     # at (or next after) it; float: offsets near the int64 limits, far below max_gap.
@@ -119,7 +120,7 @@ def check_time_bases(outputs: TopicData, inputs: TopicData, max_gap_ns: int, bag
     if abs(difference) > max_gap_ns:
         raise BagError(f'{prefix}{y_topic} and {u_topic} are stamped in different time bases: '
                        f'{y_topic} {_clock(outputs)}, {u_topic} {_clock(inputs)} '
-                       f'({_seconds(abs(difference))} apart, more than observer.max_gap); '
+                       f'({_seconds(abs(difference))} apart, more than {_seconds(max_gap_ns)}); '
                        f'every interval would use the wrong input. {advice}')
     y_first, y_last = int(outputs.stamps_ns.min()), int(outputs.stamps_ns.max())
     u_first, u_last = int(inputs.stamps_ns.min()), int(inputs.stamps_ns.max())
