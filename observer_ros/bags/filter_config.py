@@ -211,6 +211,13 @@ def load_kalman_setup(path) -> KalmanSetup:
     if system.augmentation.disturbance is not None:
         raise ConfigError('model.disturbances', 'tune_kalman does not tune the noises of '
                           'disturbance states; remove model.disturbances to tune the plant')
+    if system.observer.sources is not None:
+        raise ConfigError('observer.sources', 'tune_kalman tunes a filter updated with every '
+                          'output at each sample (one y topic); with measurement sources an '
+                          'update sees only some outputs and the autocovariances of the '
+                          'innovations do not follow one model: remove observer.sources and '
+                          'record the outputs on one topic, or tune the measurement_noise of '
+                          'each source from its own recording')
     return KalmanSetup(str(path), _document(path), parameters, system)
 
 
