@@ -38,6 +38,7 @@ import pytest
 from conftest import console_scripts, REPOSITORY
 from doc_support import heading_slugs, links, pages
 from observer_ros.config import parameter_table, PARAMETERS
+from observer_ros.config.schema import SOURCE_NAME, source_specs
 
 DOC = REPOSITORY / 'doc'
 sys.path.insert(0, str(DOC / '_ext'))
@@ -106,7 +107,9 @@ def test_the_parameter_page_equals_the_schema(site):
     source = page.read_text(encoding='utf-8')
     text = text_of(page)
     rows = parameter_rows(parameter_table())
-    assert [row['name'] for row in rows] == [spec.name for spec in PARAMETERS]
+    # Every schema parameter, then the settings of a measurement source (sources.<name>.*).
+    assert [row['name'] for row in rows] == [spec.name for spec in PARAMETERS
+                                             + source_specs(SOURCE_NAME)]
     position = 0
     for row in rows:
         anchor = 'parameter-' + re.sub(r'[^a-z0-9]+', '-', row['name'].lower())
@@ -118,7 +121,7 @@ def test_the_parameter_page_equals_the_schema(site):
         position = text.find(meaning, found)
         assert position >= 0, f'{row["name"]}: the description differs from the schema'
         assert f'run-time {row["run_time"]}' in text[found:position]
-    assert source.count('id="parameter-') == len(PARAMETERS)
+    assert source.count('id="parameter-') == len(rows)
 
 
 def _internal_targets(page: Path) -> list:

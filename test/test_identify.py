@@ -99,3 +99,49 @@ def test_bad_input_is_a_clear_error_and_nothing_is_written(tmp_path, capsys):
     assert main([str(tmp_path / 'nan'), '--order', '3', '--inputs', '/u:effort']) == 2
     assert 'no effort per joint' in capsys.readouterr().err
     assert not output.parent.exists() and not report.exists()
+
+
+def test_an_unstamped_twist_input_is_read_by_field_path_like_a_joint_state(tmp_path, capsys):
+    # /cmd_vel as geometry_msgs/Twist (no header: stamped with its log time, 1 us before its
+    # measurement) gives the model of the same input recorded as a stamped JointState.
+    from rosbags.rosbag2 import Writer
+    from bag_support import joint_state, serialize, TYPES, TYPESTORE
+    samples = 4000
+    write_third_order(tmp_path / 'joint', samples)
+    ad, bd = zero_order_hold(A, B, PERIOD)
+    rng = np.random.default_rng(1)
+    u = rng.standard_normal((samples, 1))
+    x, y = np.zeros(3), np.empty((samples, 1))
+    for k in range(samples):
+        y[k] = x[0]
+        x = ad @ x + bd @ u[k]
+    y += rng.standard_normal(y.shape) * y.std() * 10 ** (-SNR_DB / 20)
+    stamps = START_NS + round(PERIOD * 1e9) * np.arange(samples, dtype=np.int64)
+    vector = TYPES['geometry_msgs/msg/Vector3']
+    with Writer(tmp_path / 'twist', version=9) as writer:
+        commands = writer.add_connection('/cmd_vel', 'geometry_msgs/msg/Twist',
+                                         typestore=TYPESTORE)
+        measured = writer.add_connection('/y', 'sensor_msgs/msg/JointState', typestore=TYPESTORE)
+        for k in range(samples):
+            twist = TYPES['geometry_msgs/msg/Twist'](linear=vector(x=float(u[k, 0]), y=0.0, z=0.0),
+                                                     angular=vector(x=0.0, y=0.0, z=0.0))
+            writer.write(commands, int(stamps[k]) - 1000, serialize(twist))
+            writer.write(measured, int(stamps[k]),
+                         serialize(joint_state(int(stamps[k]), ['position'], y[k])))
+    model = tmp_path / 'model.yaml'
+    assert main([str(tmp_path / 'twist'), '--order', '3', '--inputs', '/cmd_vel:linear.x',
+                 '-o', str(model)]) == 0
+    twist_out = capsys.readouterr().out
+    assert main([str(tmp_path / 'joint'), '--order', '3']) == 0
+    joint_out = capsys.readouterr().out
+    poles = [line for line in twist_out.splitlines() if 'poles' in line]
+    assert poles and poles == [line for line in joint_out.splitlines() if 'poles' in line]
+    section = load_parameter_file(str(model))
+    assert section['topics.u.type'] == 'twist' and section['topics.u.fields'] == ['linear.x']
+    validate_parameters(section, strict=True)
+    # A Twist named without its fields, or with a wrong one, says what it has.
+    assert main([str(tmp_path / 'twist'), '--order', '3', '--inputs', '/cmd_vel']) == 2
+    assert 'name its field paths, TOPIC:PATH[,PATH...]; it has linear.x' in \
+        capsys.readouterr().err
+    assert main([str(tmp_path / 'twist'), '--order', '3', '--inputs', '/cmd_vel:linear.q']) == 2
+    assert "'linear.q' is no field of geometry_msgs/msg/Twist" in capsys.readouterr().err

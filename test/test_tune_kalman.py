@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 import yaml
 
+from conftest import CONFIG_DIR
 from observer_ros.bags.replay import replay_bag
 from observer_ros.bags.storage import TopicToWrite, write_bag
 from observer_ros.config import load_parameter_file, validate_parameters
@@ -219,4 +220,7 @@ def test_bad_input_is_a_clear_error_and_nothing_is_written(tmp_path, capsys):
     (tmp_path / 'luenberger.yaml').write_text(yaml.safe_dump(luenberger))
     _refused([str(tmp_path / 'nan'), str(tmp_path / 'luenberger.yaml')], capsys,
              'observer.type: tune_kalman tunes a Kalman filter')
+    # A filter of measurement sources: its partial updates do not give one ALS model.
+    _refused([str(tmp_path / 'nan'), str(CONFIG_DIR / 'wheeled_base_sources.yaml')], capsys,
+             'observer.sources: tune_kalman tunes a filter updated with every output')
     assert not output.exists() and not output.parent.exists() and not report.exists()

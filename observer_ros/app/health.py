@@ -46,7 +46,8 @@ LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR'}
 
 #: Counters of dropped or repaired input data: their growth warns in the inputs status.
 INPUT_WARNING_COUNTERS = ('malformed', 'out_of_range', 'future_stamp', 'duplicate',
-                          'out_of_order', 'late_input', 'invalid_clock', 'lockstep_timeouts',
+                          'out_of_order', 'too_old', 'late_input', 'invalid_clock',
+                          'lockstep_timeouts',
                           'stale', 'unsafe_command', 'command_timeouts',
                           'started_without_peers')
 
@@ -220,6 +221,47 @@ class InputMonitor:
                 return [(WARN, f'{topic} at {rate_text(rate)}, expected {rate_text(expected)}'
                          f' (+-{self.tolerance:.0%})')], values
         return [], values
+
+
+#: Per-source drop reasons reported by the ``sources`` check (zeros shown too).
+SOURCE_DROPS = ('malformed', 'out_of_range', 'future_stamp', 'duplicate', 'too_old',
+                'out_of_order')
+
+
+def sources_check(report: Mapping[str, object], decode_drops: Mapping[str, Counter],
+                  depth: tuple) -> Check:
+    """
+    Return the ``sources`` check: each measurement source's counts, age and history use.
+
+    Parameters
+    ----------
+    report : mapping
+        ``{source: SourceStatus}`` of
+        :meth:`~observer_ros.core.streaming.EventStream.source_report`.
+    decode_drops : mapping
+        ``{source: Counter}`` of messages dropped before the stream (``malformed`` bytes).
+    depth : tuple
+        ``(entries, span_ns)`` of the history in use.
+
+    A stale source (older than its ``timeout``) warns; the values hold, per source,
+    ``received``, ``used``, ``reruns``, the drops by reason, ``age_s`` of its last sample
+    and ``max_lag_s`` (how far back into the history its samples reached).
+    """
+    findings, values = [], []
+    for name, status in report.items():
+        counts = Counter(status.counts) + Counter(decode_drops.get(name, {}))
+        values += [(f'{name}.{key}', counts.get(key, 0))
+                   for key in ('received', 'used', 'reruns') + SOURCE_DROPS]
+        age = status.age_ns
+        values += [(f'{name}.age_s', 'never' if age is None else f'{age / NANOSECONDS:.3g}'),
+                   (f'{name}.max_lag_s', f'{status.max_lag_ns / NANOSECONDS:.3g}'),
+                   (f'{name}.stale', str(status.stale).lower())]
+        if status.stale:
+            findings.append((WARN, f'source {name} stale' + (
+                '' if age is None else f' for {seconds_text(age / NANOSECONDS)}')))
+    entries, span = depth
+    values += [('history.entries', entries), ('history.span_s', f'{span / NANOSECONDS:.3g}')]
+    return combine('sources', findings, values)
 
 
 def stale_timeout(configured: float, expected_rate: Optional[float]) -> float:

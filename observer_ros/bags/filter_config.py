@@ -34,7 +34,6 @@ from observer_ros.app.run_report import write_atomically
 from observer_ros.config import (
     Configuration, flatten_parameters, load_parameter_file, validate_parameters)
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.flat_matrices import covariance_from_flat
 from observer_ros.core.observers.kalman import NAME as KALMAN_TYPE
 from observer_ros.core.observers.kalman.design import KalmanDesign
 from observer_ros.core.observers.kalman.estimator import KalmanStep
@@ -107,15 +106,12 @@ class KalmanSetup:
     @property
     def process_noise(self) -> np.ndarray:
         """``Q`` as configured, ``(n, n)`` (an intensity for a continuous model)."""
-        return covariance_from_flat('process_noise', self.system.parameters[PROCESS_NOISE],
-                                    self.model.n_states)
+        return self.system.observer.design.process_noise
 
     @property
     def measurement_noise(self) -> np.ndarray:
         """``R`` as configured, ``(p, p)``."""
-        return covariance_from_flat('measurement_noise',
-                                    self.system.parameters[MEASUREMENT_NOISE],
-                                    self.model.n_outputs)
+        return self.system.observer.design.measurement_noise
 
     def sampled_filter(self, period_ns: int) -> SampledFilter:
         """Return the steady-state filter over one period as ALS models it."""
@@ -215,6 +211,13 @@ def load_kalman_setup(path) -> KalmanSetup:
     if system.augmentation.disturbance is not None:
         raise ConfigError('model.disturbances', 'tune_kalman does not tune the noises of '
                           'disturbance states; remove model.disturbances to tune the plant')
+    if system.observer.sources is not None:
+        raise ConfigError('observer.sources', 'tune_kalman tunes a filter updated with every '
+                          'output at each sample (one y topic); with measurement sources an '
+                          'update sees only some outputs and the autocovariances of the '
+                          'innovations do not follow one model: remove observer.sources and '
+                          'record the outputs on one topic, or tune the measurement_noise of '
+                          'each source from its own recording')
     return KalmanSetup(str(path), _document(path), parameters, system)
 
 

@@ -28,12 +28,17 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 
-from observer_ros.bags.storage import BagError, read_topics, topic_layout, TopicRequest
+from observer_ros.bags.replay import check_time_bases, log_timed
+from observer_ros.bags.storage import (
+    absolute_topic, BagError, Playback, read_topics, topic_layout, TopicData, TopicRequest)
 from observer_ros.bags.tuning import PERIOD_TOLERANCE
+from observer_ros.config.schema import FIELD_MESSAGE_TYPES
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.rules import InputHistory
 from observer_ros.core.tuning.subspace import (
     fit_percent, identify_subspace, Record, SubspaceModel, to_continuous, validate)
+from observer_ros.ros.cdr import (
+    DecodeError, field_names, FieldPathError, FieldReader, MESSAGE_TYPES)
 
 #: A step longer than this many sample periods splits a bag into records.
 GAP_PERIODS = 1.5
@@ -44,10 +49,17 @@ HOLDOUT = 0.3
 
 @dataclass(frozen=True)
 class SignalSpec:
-    """A vector topic to read: ``TOPIC[:FIELD[:JOINT,JOINT...]]`` (joints: all by default)."""
+    """
+    A topic to read: ``TOPIC[:FIELD[:JOINT,JOINT...]]`` or ``TOPIC:PATH[,PATH...]``.
+
+    A JointState topic names a field and joints (all joints by default), a Float64MultiArray
+    its whole vector; any other type the observer reads by field path (``/cmd_vel`` as
+    ``geometry_msgs/Twist``: ``/cmd_vel:linear.x,angular.z``; an ``Imu``:
+    ``/imu:angular_velocity.z``) names its field paths.
+    """
 
     topic: str
-    field: str = 'position'
+    field: Optional[str] = None
     joints: tuple = ()
 
     @classmethod
@@ -55,16 +67,83 @@ class SignalSpec:
         """Parse ``TOPIC[:FIELD[:JOINT,...]]``; ValueError saying what was expected."""
         parts = text.split(':')
         if not parts[0] or len(parts) > 3 or any(not part for part in parts):
-            raise ValueError(f'expected TOPIC[:FIELD[:JOINT,...]] (for example '
-                             f'/joint_states:position:elbow), got {text!r}')
+            raise ValueError(f'expected TOPIC[:FIELD[:JOINT,...]] or TOPIC:PATH[,PATH...] (for '
+                             f'example /joint_states:position:elbow or /cmd_vel:linear.x), '
+                             f'got {text!r}')
         joints = tuple(parts[2].split(',')) if len(parts) == 3 else ()
-        return cls(parts[0], parts[1] if len(parts) > 1 else 'position', joints)
+        return cls(parts[0], parts[1] if len(parts) > 1 else None, joints)
 
-    def request(self, bag: str) -> TopicRequest:
-        """Return what to read in ``bag`` (the joints found in it unless named)."""
-        found = topic_layout(bag, self.topic, self.field)
-        names = self.joints or found.names
-        return TopicRequest(found.topic, found.kind, self.field, names)
+    def request(self, bag: str):
+        """Return what to read in ``bag``: a TopicRequest, or a FieldRequest by field paths."""
+        playback = Playback(bag, [self.topic])
+        try:
+            msgtype = playback.topics[absolute_topic(self.topic)][0]
+        finally:
+            playback.close()
+        if msgtype in MESSAGE_TYPES.values():
+            field = self.field or 'position'
+            found = topic_layout(bag, self.topic, field)
+            return TopicRequest(found.topic, found.kind, field, self.joints or found.names)
+        kinds = {full: kind for kind, full in FIELD_MESSAGE_TYPES.items()}
+        kind = kinds.get(msgtype)
+        if kind is None:
+            raise BagError(f'{bag}: topic {self.topic} holds {msgtype}; expected one of '
+                           f'{", ".join(sorted(kinds))}')
+        if not self.field or self.joints:
+            raise BagError(f'{bag}: topic {self.topic} holds {msgtype}: name its field paths, '
+                           f'TOPIC:PATH[,PATH...]; it has {", ".join(field_names(msgtype))}')
+        fields = tuple(self.field.split(','))
+        try:
+            FieldReader(msgtype, fields)
+        except FieldPathError as e:
+            raise BagError(f'{bag}: topic {self.topic}: {e}') from e
+        return FieldRequest(absolute_topic(self.topic), kind, msgtype, fields)
+
+
+@dataclass(frozen=True)
+class FieldRequest:
+    """A topic read by field paths, as the observer reads a measurement source or ``u``."""
+
+    topic: str
+    kind: str
+    msgtype: str
+    fields: tuple
+
+    @property
+    def names(self) -> tuple:
+        """The entries' names: the field paths."""
+        return self.fields
+
+
+def read_fields(bag, request: FieldRequest) -> TopicData:
+    """
+    Read a topic by field paths: header stamps where the type has them, else log times.
+
+    Raises
+    ------
+    BagError
+        A message that does not hold the fields (the first one named).
+
+    """
+    reader = FieldReader(request.msgtype, request.fields)
+    playback = Playback(bag, [request.topic])
+    stamps, log_times, values = [], [], []
+    try:
+        for index, (_, log_time, raw) in enumerate(playback.messages()):
+            try:
+                stamp, vector = reader.read(raw)
+            except DecodeError as e:
+                raise BagError(f'{bag}: topic {request.topic}: message {index} does not hold '
+                               f'{", ".join(request.fields)} ({e})') from e
+            stamps.append(stamp or log_time)
+            log_times.append(log_time)
+            values.append(vector)
+    finally:
+        playback.close()
+    if not values:
+        raise BagError(f'{bag}: topic {request.topic} has no messages')
+    return TopicData(np.array(stamps, dtype=np.int64), np.array(log_times, dtype=np.int64),
+                     np.array(values, dtype=float).reshape(len(values), len(request.fields)))
 
 
 @dataclass(frozen=True)
@@ -97,23 +176,38 @@ def _finite(bag, what, values, stamps) -> None:
                        f'ns); clean or cut the recording')
 
 
-def bag_signals(bag: str, inputs: Sequence[SignalSpec], outputs: Sequence[SignalSpec]
-                ) -> BagSignals:
+def bag_signals(bag: str, inputs: Sequence[SignalSpec], outputs: Sequence[SignalSpec],
+                use_log_time: bool = False) -> BagSignals:
     """
     Read and pair one bag's inputs and outputs; the task of one worker.
+
+    With ``use_log_time`` every topic is stamped with its log times (the recorder's clock)
+    instead of its header stamps.
 
     Raises
     ------
     BagError
-        Missing topics, NaN, no measurement after the first input, uneven sampling.
+        Missing topics, NaN, inputs and outputs stamped in different time bases, no
+        measurement after the first input, uneven sampling.
 
     """
     requests = [spec.request(bag) for spec in (*inputs, *outputs)]
-    data = read_topics(bag, requests)
+    vectors = [request for request in requests if isinstance(request, TopicRequest)]
+    read = dict(zip(map(id, vectors), read_topics(bag, vectors))) if vectors else {}
+    data = [read[id(request)] if isinstance(request, TopicRequest) else read_fields(bag, request)
+            for request in requests]
+    if use_log_time:
+        data = [log_timed(item) for item in data]
     input_data, output_data = data[:len(inputs)], data[len(inputs):]
     for request, item in zip(requests, data):
         _finite(bag, f'topic {request.topic}', item.values, item.stamps_ns)
     stamps = output_data[0].stamps_ns
+    steps = np.diff(stamps)
+    gap_ns = GAP_PERIODS * int(np.median(steps)) if len(steps) else 0
+    for request, item in zip(requests, input_data):
+        check_time_bases(output_data[0], item, gap_ns, str(bag), requests[len(inputs)].topic,
+                         request.topic,
+                         'use log times for both (identify --use-log-time)')
     for request, item in zip(requests[len(inputs) + 1:], output_data[1:]):
         if not np.array_equal(item.stamps_ns, stamps):
             raise BagError(f'{bag}: topic {request.topic} is not stamped like '
@@ -173,7 +267,7 @@ class Identification:
 def identify_bags(bags: Sequence[str], inputs: Sequence[SignalSpec],
                   outputs: Sequence[SignalSpec], order: int, mapper: Callable,
                   holdout: float = HOLDOUT, horizon: Optional[int] = None,
-                  continuous: bool = False) -> Identification:
+                  continuous: bool = False, use_log_time: bool = False) -> Identification:
     """
     Identify a model of ``order`` from the bags and score it on their held-out parts.
 
@@ -186,7 +280,7 @@ def identify_bags(bags: Sequence[str], inputs: Sequence[SignalSpec],
     """
     if not 0 < holdout < 1:
         raise ConfigError('--holdout', f'expected a fraction in (0, 1), got {holdout}')
-    signals = list(mapper(_signals_task, [(bag, tuple(inputs), tuple(outputs))
+    signals = list(mapper(_signals_task, [(bag, tuple(inputs), tuple(outputs), use_log_time)
                                           for bag in bags], 'read'))
     first = signals[0]
     for item in signals[1:]:

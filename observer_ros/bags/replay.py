@@ -34,11 +34,15 @@ from typing import Optional, Union
 import numpy as np
 
 from observer_ros.bags.storage import (
-    absolute_topic, BagError, read_topics, TopicData, TopicRequest)
+    absolute_topic, BagError, Playback, read_topics, TopicData, TopicRequest)
 from observer_ros.config import Configuration, load_parameter_file, validate_parameters
-from observer_ros.config.schema import JOINT_STATE_FIELDS, topic_names
+from observer_ros.config.schema import FIELD_MESSAGE_TYPES, JOINT_STATE_FIELDS, topic_names
+from observer_ros.core.estimates import replay_arrays
 from observer_ros.core.evaluation import align
+from observer_ros.core.events import INPUT
+from observer_ros.core.streaming import RecordedEvent
 from observer_ros.core.units import NANOSECONDS
+from observer_ros.ros.cdr import DecodeError, FieldReader, MessageReader
 
 
 #: Inputs, evenly spread, whose stamps are compared with the measurements' time base.
@@ -75,7 +79,9 @@ def _clock(data: TopicData) -> str:
 
 
 def check_time_bases(outputs: TopicData, inputs: TopicData, max_gap_ns: int, bag: str = '',
-                     y_topic: str = 'y', u_topic: str = 'u') -> None:
+                     y_topic: str = 'y', u_topic: str = 'u',
+                     log_time_advice: str = 'replay with log times for both (replay '
+                     '--use-log-time, replay_bag(..., use_log_time=True))') -> None:
     """
     Refuse measurements and inputs stamped in different time bases.
 
@@ -101,8 +107,7 @@ def check_time_bases(outputs: TopicData, inputs: TopicData, max_gap_ns: int, bag
     """
     if not len(outputs.stamps_ns) or not len(inputs.stamps_ns):
         return
-    advice = (f'stamp {u_topic} in the clock of {y_topic}, or replay with log times for both '
-              f'(replay --use-log-time, replay_bag(..., use_log_time=True))')
+    advice = f'stamp {u_topic} in the clock of {y_topic}, or {log_time_advice}'
     prefix = f'{bag}: ' if bag else ''
     # At most TIME_BASE_SAMPLES inputs, evenly spread, each against the measurement logged
     # at (or next after) it; float: offsets near the int64 limits, far below max_gap.
@@ -115,7 +120,7 @@ def check_time_bases(outputs: TopicData, inputs: TopicData, max_gap_ns: int, bag
     if abs(difference) > max_gap_ns:
         raise BagError(f'{prefix}{y_topic} and {u_topic} are stamped in different time bases: '
                        f'{y_topic} {_clock(outputs)}, {u_topic} {_clock(inputs)} '
-                       f'({_seconds(abs(difference))} apart, more than observer.max_gap); '
+                       f'({_seconds(abs(difference))} apart, more than {_seconds(max_gap_ns)}); '
                        f'every interval would use the wrong input. {advice}')
     y_first, y_last = int(outputs.stamps_ns.min()), int(outputs.stamps_ns.max())
     u_first, u_last = int(inputs.stamps_ns.min()), int(inputs.stamps_ns.max())
@@ -261,6 +266,113 @@ def load_system(parameters: Union[str, os.PathLike, Configuration]) -> Configura
     return system
 
 
+def _input_reader(system: Configuration):
+    """Return the reader of ``u``: by ``topics.u.fields``, else its vector of type and field."""
+    settings = system.topics['u']
+    if settings.fields:
+        return FieldReader(FIELD_MESSAGE_TYPES[settings.type], settings.fields)
+    names = topic_names(system.model, 'u')
+    return MessageReader(settings.type, settings.field, names)
+
+
+def recorded_events(bag, system: Configuration, u_topic: str = 'u',
+                    use_log_time: bool = False) -> tuple:
+    """
+    Read the measurement sources' and the inputs' messages of a bag, in bag order.
+
+    Each message is read as the observer node reads it: the fields of its source
+    (:class:`~observer_ros.ros.cdr.FieldReader`), its header stamp where the type has one
+    and it is not zero, else its log time (the node, under ``play_bag``, stamps it with
+    ``/clock``, which is that log time); the log time is its arrival.
+
+    Returns
+    -------
+    events : list of RecordedEvent
+    counts : dict
+        ``{source or 'u': Counter}`` of messages read and dropped (``malformed``).
+
+    Raises
+    ------
+    observer_ros.bags.storage.BagError
+        A source's topic (or ``u_topic``) is not in the bag or holds another type.
+
+    """
+    from collections import Counter
+    sources = system.observer.sources
+    readers = {absolute_topic(settings.topic): (
+        settings.name, msgtype, FieldReader(msgtype, settings.fields))
+               for settings, msgtype in zip(sources.settings, sources.msgtypes)}
+    if system.model.n_inputs:
+        settings = system.topics['u']
+        msgtype = FIELD_MESSAGE_TYPES[settings.type]
+        readers[absolute_topic(u_topic)] = (INPUT, msgtype, _input_reader(system))
+    playback = Playback(bag, list(readers))
+    events, counts = [], {name: Counter() for name, _, _ in readers.values()}
+    try:
+        for topic, (expected, _) in playback.topics.items():
+            if expected != readers[topic][1]:
+                raise BagError(f'{bag}: topic {playback.recorded[topic]} holds {expected}, '
+                               f'expected {readers[topic][1]} (the type of its source)')
+        for topic, log_time, raw in playback.messages():
+            name, _, reader = readers[topic]
+            counts[name]['received'] += 1
+            try:
+                stamp, values = reader.read(raw)
+            except DecodeError:
+                counts[name]['malformed'] += 1
+                continue
+            if not all(map(np.isfinite, values)):
+                counts[name]['malformed'] += 1
+                continue
+            stamp = log_time if use_log_time or not stamp else stamp
+            events.append(RecordedEvent(name, stamp, np.array(values, dtype=float), log_time))
+    finally:
+        playback.close()
+    return events, counts
+
+
+def _replay_sources(bag, system: Configuration, u_topic: str,
+                    use_log_time: bool) -> 'ReplayResult':
+    """:func:`replay_bag` of a configuration with measurement sources: message by message."""
+    events, counts = recorded_events(bag, system, u_topic, use_log_time)
+    stream = system.observer.make_stream()
+    if use_log_time:
+        stream.input_stamped = False
+    samples = stream.replay_events(events)
+    model = system.model
+    arrays = replay_arrays([sample._replace(innovation=_full_innovation(sample, model),
+                                            innovation_covariance=None, nis=None)
+                            for sample in samples], model.n_states, model.n_outputs)
+    measured = [event for event in events if event.source != INPUT]
+    inputs = [event for event in events if event.source == INPUT]
+    counters = dict(stream.counters)
+    counters['malformed'] = counters.get('malformed', 0) + sum(
+        count['malformed'] for count in counts.values())
+    return ReplayResult(system, str(bag), arrays.stamps_ns, arrays.estimates,
+                        arrays.innovations, _topic_data(measured, 0), _topic_data(
+                            inputs, model.n_inputs), counters, use_log_time,
+                        arrays.covariances, None, None)
+
+
+def _full_innovation(sample, model) -> np.ndarray:
+    """Return the innovation as a p-vector: NaN where an output was not in the update."""
+    outputs = getattr(sample, 'outputs', None)
+    if outputs is None:
+        return sample.innovation
+    full = np.full(model.n_outputs, np.nan)
+    full[list(outputs)] = sample.innovation
+    return full
+
+
+def _topic_data(events: list, width: int) -> TopicData:
+    """Return the events read as TopicData (values only when they share one width)."""
+    stamps = np.array([event.stamp_ns for event in events], dtype=np.int64)
+    logged = np.array([event.arrival_ns for event in events], dtype=np.int64)
+    values = (np.array([event.values for event in events]).reshape(len(events), width)
+              if width else np.zeros((len(events), 0)))
+    return TopicData(stamps, logged, values)
+
+
 def replay_bag(bag: Union[str, os.PathLike],
                parameters: Union[str, os.PathLike, Configuration],
                y_topic: str = 'y', u_topic: str = 'u',
@@ -274,7 +386,12 @@ def replay_bag(bag: Union[str, os.PathLike],
         rosbag2 directory (MCAP or sqlite3), or one storage file.
     parameters : path-like or Configuration
         Parameter file (``/**: ros__parameters:``) or an already validated system. Its
-        ``topics.y.*`` and ``topics.u.*`` give the message types, fields and joint names.
+        ``topics.y.*`` and ``topics.u.*`` give the message types, fields and joint names;
+        with ``observer.sources`` each source's topic is read by its fields and every
+        message goes to the stream in bag order (:func:`recorded_events`,
+        :meth:`~observer_ros.core.streaming.EventStream.replay_events`), as the node takes
+        them from ``play_bag``. Its innovations are then NaN where an output was not in the
+        update, and it has no innovation covariances or NIS.
     y_topic, u_topic : str
         Topic names in the bag (``y`` is ``/y``; a bag's ``y`` recorded without the slash
         is found either way). A model without inputs (m = 0) reads no ``u_topic``.
@@ -293,6 +410,8 @@ def replay_bag(bag: Union[str, os.PathLike],
 
     """
     system = load_system(parameters)
+    if system.observer.sources is not None or system.topics['u'].fields:
+        return _replay_sources(bag, system, u_topic, use_log_time)
     if system.model.n_inputs == 0:  # no inputs: the measurements alone
         (outputs,) = read_topics(bag, [topic_request(system, 'y', y_topic)])
         inputs = TopicData(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 0)))

@@ -34,6 +34,7 @@ from observer_ros.config.observer import (
 from observer_ros.config.plant import plant_settings, PlantSettings
 from observer_ros.config.schema import CONTROLLER, FEEDBACK, OBSERVER, PLANT
 from observer_ros.config.sections import DiagnosticsSection, Sections, TopicsSection
+from observer_ros.config.sources import check_input_fields
 from observer_ros.config.timing import check_sample_period, sample_rate
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.model import StateSpaceModel
@@ -161,9 +162,12 @@ def validate_parameters(params: Mapping[str, Any], strict: bool = False,
     feedback = feedback_settings(sections, augmentation) if 'feedback' in parts else None
     plant = plant_settings(sections, augmentation) if 'plant' in parts else None
     check_sample_period(sections, model, params)
+    check_input_fields(sections, model)
     observer = None
     if designed is not None:
         observer = ObserverSetup.of(designed, sections, joint_state_selection(
             sections.observer.joint_states, model))
+        if observer is not None and observer.keeps_history:
+            observer.make_stream()  # the type asked about each source, once, at start-up
     return Configuration(sections, augmentation, sample_rate(sections, model)[0], observer,
                          feedback, plant, analyse_loop(augmentation, observer, feedback))

@@ -42,6 +42,7 @@ import numpy as np
 from observer_ros.config.model import Augmentation
 from observer_ros.config.sections import (
     Binding, JointStatesSection, ModelSection, ObserverSection, Sections)
+from observer_ros.config.sources import check_history, measurement_sources, SourcesSetup
 from observer_ros.config.values import check_inside, indices
 from observer_ros.core.design.common import ObserverDesign
 from observer_ros.core.errors import ConfigError
@@ -128,6 +129,10 @@ class DesignedObserver:
         The arguments of the type's calls bound to their parameters.
     design_source : str
         The parameter a failed design is charged to when its error names none.
+    sources : SourcesSetup or None
+        ``observer.sources`` and ``sources.<name>.*`` (None: one source, ``topics.y``).
+    history_ns : int
+        ``observer.history``.
 
     """
 
@@ -137,6 +142,8 @@ class DesignedObserver:
     initial_state: Optional[np.ndarray]
     binding: Binding
     design_source: str
+    sources: Optional[SourcesSetup] = None
+    history_ns: int = 0
 
 
 def observer_design(sections: Sections, augmentation: Augmentation) -> DesignedObserver:
@@ -155,7 +162,9 @@ def observer_design(sections: Sections, augmentation: Augmentation) -> DesignedO
     binding = ModelSection.binding() | section.binding()
     with binding.charged(binding['type']):
         kind = observer_type(section.type)
-    given = section.arguments
+    history_ns = check_history(sections)
+    sources = measurement_sources(sections, model)
+    given = _with_source_noise(section.arguments, sources, kind, binding)
     design_source = binding.get(kind.charged_argument(given)) or binding['type']
     for argument in disturbance_arguments():
         augmentation.refuse_without(binding[argument], given.get(argument))
@@ -171,7 +180,23 @@ def observer_design(sections: Sections, augmentation: Augmentation) -> DesignedO
                                          model.n_states)
         check_inside(binding['initial_state'], initial_state, sections.topics['x_hat'].limit,
                      'topics.x_hat.limit')
-    return DesignedObserver(kind, arguments, design, initial_state, binding, design_source)
+    return DesignedObserver(kind, arguments, design, initial_state, binding, design_source,
+                            sources, history_ns)
+
+
+def _with_source_noise(given: dict, sources: Optional[SourcesSetup], kind: ObserverType,
+                       binding: Binding) -> dict:
+    """Return the type's arguments with ``R`` made of the sources' blocks, when they give them."""
+    if sources is None or sources.measurement_noise is None:
+        return given
+    block = sources.settings[0].parameter('measurement_noise')
+    if 'measurement_noise' not in kind.argument_names():
+        raise ConfigError(block, f'a {kind.name} observer takes no measurement noise; '
+                          f'expected none')
+    if given['measurement_noise']:
+        raise ConfigError(binding['measurement_noise'], 'the sources give their blocks of R '
+                          '(sources.<name>.measurement_noise); expected it empty')
+    return {**given, 'measurement_noise': sources.measurement_noise.ravel().tolist()}
 
 
 def _check_interval_resolution(section: ObserverSection, model: StateSpaceModel) -> None:
@@ -222,6 +247,10 @@ class ObserverSetup:
         The type's arguments (and the model's) bound to their parameters.
     design_source : str
         The parameter a failed design is charged to when its error names none.
+    sources : SourcesSetup or None
+        The measurement sources (None: one, ``topics.y``, with every output).
+    history_ns : int
+        ``observer.history`` in nanoseconds.
 
     """
 
@@ -239,6 +268,8 @@ class ObserverSetup:
     joint_states: Optional[JointStateSelection]
     binding: Binding
     design_source: str
+    sources: Optional[SourcesSetup] = None
+    history_ns: int = 0
 
     @classmethod
     def of(cls, result: DesignedObserver, sections: Sections,
@@ -254,7 +285,7 @@ class ObserverSetup:
                    _ns(section.interval_resolution), _ns(section.max_gap),
                    _ns(section.clock_tolerance), _ns(section.input_wait), section.publish_rate,
                    limits, topics['u'].stamped, joint_states, result.binding,
-                   result.design_source)
+                   result.design_source, result.sources, result.history_ns)
 
     @property
     def form(self) -> str:
@@ -304,9 +335,33 @@ class ObserverSetup:
         """
         Build the :class:`EventStream` the observer node and the bag replay both run.
 
-        Its gap, clock tolerance, value limits, stamped inputs and form are this setup's.
+        Its gap, clock tolerance, value limits, stamped inputs, form, measurement sources
+        and history are this setup's.
+
+        Raises
+        ------
+        ConfigError
+            Naming the parameter: the type cannot update with several sources, or with one
+            source alone that is not ``predict_only`` (naming the source and the modes it
+            cannot see).
+
         """
-        return EventStream(self.make_estimator(), self.max_gap_ns,
-                           input_stamped=self.input_stamped,
-                           clock_tolerance_ns=self.clock_tolerance_ns, limits=self.limits,
-                           form=self.form)
+        estimator = self.make_estimator()
+        binding = self.binding | SOURCE_ARGUMENTS
+        with binding.charged('observer.sources'):
+            return EventStream(estimator, self.max_gap_ns, input_stamped=self.input_stamped,
+                               clock_tolerance_ns=self.clock_tolerance_ns, limits=self.limits,
+                               form=self.form,
+                               sources=None if self.sources is None else self.sources.sources,
+                               history_ns=self.history_ns,
+                               output_names=self.design.model.output_names)
+
+    @property
+    def keeps_history(self) -> bool:
+        """Whether the stream keeps a history (several sources, or ``observer.history``)."""
+        return self.history_ns > 0 or self.sources is not None and len(
+            self.sources.sources) > 1
+
+
+#: The stream's arguments about sources, bound to their parameters.
+SOURCE_ARGUMENTS = {'sources': 'observer.sources', 'history': 'observer.history'}

@@ -78,6 +78,26 @@ COVARIANCE_LIMIT = 1e18
 MESSAGE_TYPES = ('joint_state', 'float64_multi_array')
 JOINT_STATE_FIELDS = ('position', 'velocity', 'effort')
 
+#: The message types read by field path (measurement sources, ``topics.u.fields``), by the
+#: short name a parameter gives: ``imu`` is ``sensor_msgs/msg/Imu``.
+FIELD_MESSAGE_TYPES = {
+    'joint_state': 'sensor_msgs/msg/JointState',
+    'float64_multi_array': 'std_msgs/msg/Float64MultiArray',
+    'float64': 'std_msgs/msg/Float64',
+    'imu': 'sensor_msgs/msg/Imu',
+    'odometry': 'nav_msgs/msg/Odometry',
+    'pose_stamped': 'geometry_msgs/msg/PoseStamped',
+    'twist_stamped': 'geometry_msgs/msg/TwistStamped',
+    'wrench_stamped': 'geometry_msgs/msg/WrenchStamped',
+    'point_stamped': 'geometry_msgs/msg/PointStamped',
+    'vector3_stamped': 'geometry_msgs/msg/Vector3Stamped',
+    'twist': 'geometry_msgs/msg/Twist',
+}
+
+#: Message types of the inputs ``u``: the vector types, and ``geometry_msgs/Twist``
+#: (``/cmd_vel``) read by ``topics.u.fields``.
+INPUT_MESSAGE_TYPES = MESSAGE_TYPES + ('twist',)
+
 #: Vector topics: name, what the entries are named after, and the nodes that use it.
 TOPIC_ROLES = (
     ('y', 'output', (PLANT, OBSERVER)), ('u', 'input', (PLANT, OBSERVER)),
@@ -200,6 +220,16 @@ OBSERVER_STREAM = (
           'at this rate on its clock, the estimate predicted to that time with the latest '
           'input (and its covariance), stamped with that time; 0 publishes once per '
           'measurement (0 ... 1000).', _OBS, low=0.0, high=1000.0, unit='a rate in Hz'),
+    _seconds('observer.history', 0.0, 'Seconds of measurements, inputs and estimates kept '
+             'for late ones: a measurement older than the newest one but inside the '
+             'history is inserted in stamp order and the estimates after it computed again '
+             '(the corrected newest one is published); older: dropped (too_old). 0 (the '
+             'default) keeps none with one source: an older measurement is dropped '
+             '(out_of_order). At most observer.max_gap (0 ... 1e6).', 0.0, 1e6, _OBS),
+    _spec('observer.sources', STRING_ARRAY, [], 'Names of the measurement sources, each '
+          'configured by sources.<name>.* (its topic, message type, fields, the outputs '
+          'it carries...); every output in exactly one source. Empty (the default): one '
+          'source, topics.y, with every output.', _OBS),
     _spec('observer.joint_names', STRING_ARRAY, [], 'Joints of the estimated joint states: '
           'when given, every x_hat is also published as a sensor_msgs/JointState on '
           'joint_states_hat (same stamp) with these joint names; empty: not published.',
@@ -363,12 +393,15 @@ def _topic_parameters(topic: str, names: str, nodes: tuple) -> tuple:
                'output pair': 'entries named "<output>,<output>" (row-major)',
                'nis': 'one entry named "nis"'}.get(names, f'the model {names} names as joint '
                                                           f'names')
-    return (
+    inputs = topic == 'u'
+    specs = (
         _spec(topic_parameter(topic, 'type'), STRING, 'joint_state',
               f'Message type of {topic}: joint_state (sensor_msgs/JointState, {entries}) | '
               f'float64_multi_array (std_msgs/Float64MultiArray, unstamped'
-              + (', layout n x n' if names.endswith('pair') else '') + ').', nodes,
-              choices=MESSAGE_TYPES),
+              + (', layout n x n' if names.endswith('pair') else '') + ')'
+              + (' | twist (geometry_msgs/Twist, unstamped, e.g. /cmd_vel; with '
+                 'topics.u.fields)' if inputs else '') + '.', nodes,
+              choices=INPUT_MESSAGE_TYPES if inputs else MESSAGE_TYPES),
         _spec(topic_parameter(topic, 'field'), STRING, 'position',
               f'JointState field holding {topic}: position | velocity | effort.', nodes,
               choices=JOINT_STATE_FIELDS),
@@ -376,6 +409,66 @@ def _topic_parameters(topic: str, names: str, nodes: tuple) -> tuple:
               f'Largest magnitude of a value on {topic}: a received message with a larger '
               f'value is dropped and counted (out_of_range), and no larger value is published '
               f'(1e-300 ... 1e300).', nodes, low=1e-300, high=1e300),
+    )
+    if inputs:
+        specs += (_spec(topic_parameter(topic, 'fields'), STRING_ARRAY, [],
+                        'The inputs read by field path, one per input in model order: '
+                        'linear.x, angular.z for twist; data[0], data[3] for '
+                        'float64_multi_array; <field>.<joint name> for joint_state. Empty '
+                        '(the default): required for twist; otherwise the vector as '
+                        'topics.u.type and topics.u.field say.', nodes),)
+    return specs
+
+
+#: The settings of every measurement source: ``sources.<name>.<setting>``.
+SOURCE_SETTINGS = ('topic', 'type', 'fields', 'outputs', 'measurement_noise', 'latency',
+                   'timeout', 'predict_only')
+
+#: Placeholder of the source name in the parameter table.
+SOURCE_NAME = '<name>'
+
+
+def source_parameter(name: str, setting: str) -> str:
+    """Return the parameter of a measurement source's setting: ``sources.imu.fields``."""
+    return f'sources.{name}.{setting}'
+
+
+def source_specs(name: str) -> tuple:
+    """
+    Return the parameters of the measurement source ``name`` (:data:`SOURCE_SETTINGS`).
+
+    Declared by the observer for each name of ``observer.sources``; :data:`PARAMETERS`
+    lists them once with the name :data:`SOURCE_NAME`.
+    """
+    def named(setting):
+        return source_parameter(name, setting)
+    return (
+        _spec(named('topic'), STRING, '', 'Topic of the source (relative names are '
+              'remapped as usual); empty: the source name.', _OBS),
+        _spec(named('type'), STRING, 'joint_state', 'Message type of the source: '
+              + ' | '.join(FIELD_MESSAGE_TYPES) + '; header stamps where the type has '
+              'them, else stamped on arrival.', _OBS, choices=tuple(FIELD_MESSAGE_TYPES)),
+        _spec(named('fields'), STRING_ARRAY, [], 'Field paths of the values, in the order '
+              'of sources.<name>.outputs: angular_velocity.z, pose.pose.position.x, '
+              'pose.orientation.yaw (the roll, pitch, yaw of a quaternion), <field>.<joint '
+              'name> for joint_state (velocity.left_wheel), data[<index>] for '
+              'float64_multi_array, data for float64.', _OBS),
+        _spec(named('outputs'), STRING_ARRAY, [], 'The model outputs (names, or 0-based '
+              'indices) the fields carry, one per field; every output in exactly one '
+              'source.', _OBS),
+        _values(named('measurement_noise'), 'Kalman: the block of R of the source, k diagonal '
+                'values or k x k row-major for its k outputs; given for every source or '
+                'none (then observer.measurement_noise).', _OBS),
+        _seconds(named('latency'), 0.0, 'Fixed latency: each sample was taken this long '
+                 'before its stamp (before its arrival when stamped on arrival); within '
+                 'observer.history (0 ... 1e6).', 0.0, 1e6, _OBS),
+        _seconds(named('timeout'), 0.0, 'Seconds after its last sample at which the source '
+                 'is reported stale; 0 (the default): never; else more than one sample '
+                 'period (0 ... 3600).', 0.0, 3600.0, _OBS),
+        _spec(named('predict_only'), BOOL, False, 'When the outputs of the source alone cannot '
+              'correct the estimate (an unobservable subset for a steady-state Kalman filter '
+              'or a full-order observer), its samples alone only move the estimate forward '
+              'instead of the configuration being refused.', _OBS),
     )
 
 
@@ -403,7 +496,7 @@ def parameter_table() -> str:
             '|---|---|---|---|---|---|---|']
     short = {PLANT: 'plant', OBSERVER: 'observer', FEEDBACK: 'feedback',
              CONTROLLER: 'controller'}
-    for spec in PARAMETERS:
+    for spec in PARAMETERS + source_specs(SOURCE_NAME):
         default = json.dumps(spec.default) if not isinstance(spec.default, str) else spec.default
         limits = spec.range_text() or (f'abs <= {number_text(spec.entry_limit)}'
                                        if spec.entry_limit else '')

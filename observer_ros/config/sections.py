@@ -43,8 +43,8 @@ from typing import Any, Iterator, Mapping
 import numpy as np
 
 from observer_ros.config.schema import (
-    OBSERVER_ARGUMENTS, PARAMETER_SPECS, PARAMETERS, ROS_PARAMETERS, topic_parameter,
-    TOPIC_ROLES, TOPIC_SETTINGS)
+    OBSERVER_ARGUMENTS, PARAMETER_SPECS, PARAMETERS, ROS_PARAMETERS, source_parameter,
+    SOURCE_SETTINGS, source_specs, topic_parameter, TOPIC_ROLES, TOPIC_SETTINGS)
 from observer_ros.core.errors import ConfigError, DesignError
 
 #: Field metadata: the parameter a field is bound to, or the section a field holds.
@@ -53,6 +53,41 @@ PARAMETER, SECTION = 'parameter', 'section'
 #: What numpy and scipy raise when a design's arithmetic breaks down (overflow, no
 #: convergence); a design that raises one is refused like any other failed design.
 NUMERIC_FAILURES = (np.linalg.LinAlgError, ValueError, ArithmeticError)
+
+
+#: The prefix of the measurement sources' parameters (``sources.<name>.<setting>``).
+SOURCES_PREFIX = 'sources.'
+
+
+def source_names(names: list) -> tuple:
+    """
+    Check the names of ``observer.sources``: unique, each a ROS parameter name token.
+
+    Raises
+    ------
+    ConfigError
+        ``observer.sources``, saying which name and why.
+
+    """
+    for name in names:
+        if not name or not name.replace('_', 'a').isalnum() or not name[0].isalpha():
+            raise ConfigError('observer.sources', f'expected names of letters, digits and '
+                              f'underscores, starting with a letter, got {name!r}')
+    repeated = sorted({name for name in names if names.count(name) > 1})
+    if repeated:
+        raise ConfigError('observer.sources', f'names {repeated} are given twice; expected '
+                          f'each source once')
+    return tuple(names)
+
+
+def unknown_source(parameter: str, sources: tuple) -> str:
+    """Say why ``parameter`` (``sources.<name>.<setting>``) is none of the sources'."""
+    name, _, setting = parameter[len(SOURCES_PREFIX):].partition('.')
+    if name in sources:
+        return (f'unknown setting {setting!r} of the measurement source {name!r}; expected '
+                f'one of {", ".join(SOURCE_SETTINGS)}')
+    return (f'{name!r} is no measurement source: observer.sources names '
+            f'{list(sources) or "none"}; add it there, or remove its parameters')
 
 
 def complete_parameters(params: Mapping[str, Any], strict: bool = False) -> dict:
@@ -74,9 +109,15 @@ def complete_parameters(params: Mapping[str, Any], strict: bool = False) -> dict
     complete = {}
     for spec in PARAMETERS:
         complete[spec.name] = spec.coerce(params.get(spec.name, spec.default))
+    sources = source_names(complete['observer.sources'])
+    for name in sources:
+        for spec in source_specs(name):
+            complete[spec.name] = spec.coerce(params.get(spec.name, spec.default))
     for name, value in params.items():
-        if name in PARAMETER_SPECS:
+        if name in PARAMETER_SPECS or name in complete:
             continue
+        if name.startswith(SOURCES_PREFIX):
+            raise ConfigError(name, unknown_source(name, sources))
         if strict and not (name in ROS_PARAMETERS or name.startswith('qos_overrides.')):
             raise ConfigError(name, 'unknown parameter; see the parameter schema in README')
         complete[name] = value
@@ -266,6 +307,8 @@ class ObserverSection(Section):
     max_gap: float = bound('observer.max_gap')
     clock_tolerance: float = bound('observer.clock_tolerance')
     publish_rate: float = bound('observer.publish_rate')
+    history: float = bound('observer.history')
+    sources: list = bound('observer.sources')
     joint_states: JointStatesSection = nested(JointStatesSection)
     arguments: dict = field(default_factory=dict)
 
@@ -377,12 +420,16 @@ class TopicSettings:
         The JointState field holding the values.
     limit : float
         The largest magnitude a value may have.
+    fields : tuple of str
+        ``topics.u.fields``: the values read by field path (empty: the vector of ``type``
+        and ``field``; other topics have none).
 
     """
 
     type: str  # noqa: A003 (the parameter's name)
     field: str
     limit: float
+    fields: tuple = ()
 
     @property
     def stamped(self) -> bool:
@@ -390,7 +437,23 @@ class TopicSettings:
         return self.type == 'joint_state'
 
 
-class TopicsSection(Mapping):
+class SettingsByName(Mapping):
+    """A section kept by name (a topic, a source): a read-only mapping of its settings."""
+
+    def __init__(self, settings: Mapping[str, Any]) -> None:
+        self._settings = dict(settings)
+
+    def __getitem__(self, name: str) -> Any:
+        return self._settings[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._settings)
+
+    def __len__(self) -> int:
+        return len(self._settings)
+
+
+class TopicsSection(SettingsByName):
     """
     ``topics.*``: :class:`TopicSettings` by topic (``topics['y'].limit``), every vector topic.
 
@@ -398,30 +461,87 @@ class TopicsSection(Mapping):
     :data:`~observer_ros.config.schema.TOPIC_ROLES` and each setting.
     """
 
-    def __init__(self, topics: Mapping[str, TopicSettings]) -> None:
-        self._topics = dict(topics)
-
-    def __getitem__(self, topic: str) -> TopicSettings:
-        return self._topics[topic]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._topics)
-
-    def __len__(self) -> int:
-        return len(self._topics)
-
     @classmethod
     def parameter_names(cls) -> tuple:
         """Return every ``topics.<topic>.<setting>`` parameter."""
         return tuple(topic_parameter(topic, setting) for topic, _, _ in TOPIC_ROLES
-                     for setting in TOPIC_SETTINGS)
+                     for setting in TOPIC_SETTINGS) + (INPUT_FIELDS,)
 
     @classmethod
     def read(cls, checked: Mapping[str, Any]) -> 'TopicsSection':
         """Return the settings of every vector topic."""
         return cls({topic: TopicSettings(**{
-            setting: checked[topic_parameter(topic, setting)] for setting in TOPIC_SETTINGS})
+            setting: checked[topic_parameter(topic, setting)] for setting in TOPIC_SETTINGS},
+            fields=tuple(checked[INPUT_FIELDS]) if topic == 'u' else ())
             for topic, _, _ in TOPIC_ROLES})
+
+
+#: ``topics.u.fields``: the inputs read by field path.
+INPUT_FIELDS = topic_parameter('u', 'fields')
+
+
+@dataclass(frozen=True)
+class SourceSettings:
+    """
+    ``sources.<name>.*`` of one measurement source, checked one by one.
+
+    Attributes
+    ----------
+    name : str
+    topic : str
+        Its topic (the name when ``sources.<name>.topic`` is empty).
+    type : str
+        A short name of :data:`~observer_ros.config.schema.FIELD_MESSAGE_TYPES`.
+    fields, outputs : tuple of str
+        The field paths and the outputs they carry, in the same order.
+    measurement_noise : tuple of float
+    latency, timeout : float
+        Seconds.
+    predict_only : bool
+
+    """
+
+    name: str
+    topic: str
+    type: str  # noqa: A003 (the parameter's name)
+    fields: tuple
+    outputs: tuple
+    measurement_noise: tuple
+    latency: float
+    timeout: float
+    predict_only: bool
+
+    def parameter(self, setting: str) -> str:
+        """Return the parameter of one of its settings: ``sources.imu.fields``."""
+        return source_parameter(self.name, setting)
+
+
+class SourcesSection(SettingsByName):
+    """
+    ``sources.<name>.*``: :class:`SourceSettings` by name, in ``observer.sources`` order.
+
+    Empty without ``observer.sources`` (one source, ``topics.y``). Its parameters are made
+    for each name (:func:`~observer_ros.config.schema.source_specs`), so the section binds
+    none of the schema's own.
+    """
+
+    @classmethod
+    def parameter_names(cls) -> tuple:
+        """None of the schema's: a source's parameters are made for its name."""
+        return ()
+
+    @classmethod
+    def read(cls, checked: Mapping[str, Any]) -> 'SourcesSection':
+        """Return the settings of every source named in ``observer.sources``."""
+        sources = {}
+        for name in checked['observer.sources']:
+            values = {setting: checked[source_parameter(name, setting)]
+                      for setting in SOURCE_SETTINGS}
+            for setting in ('fields', 'outputs', 'measurement_noise'):
+                values[setting] = tuple(values[setting])
+            values['topic'] = values['topic'] or name
+            sources[name] = SourceSettings(name, **values)
+        return cls(sources)
 
 
 @dataclass(frozen=True)
@@ -446,6 +566,7 @@ class Sections(Section):
     plant: PlantSection = nested(PlantSection)
     diagnostics: DiagnosticsSection = nested(DiagnosticsSection)
     topics: TopicsSection = nested(TopicsSection)
+    sources: SourcesSection = nested(SourcesSection)
     parameters: dict = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod

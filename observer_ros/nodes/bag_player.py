@@ -27,7 +27,10 @@ Two pacings:
   trigger topic (``--trigger``, default ``/y``) the player waits for the response carrying the
   trigger's stamp (or, for a response without a header, for the next response message)
   before it publishes anything else. Nothing is lost to queues, so the node's output equals
-  the offline replay's, message by message.
+  the offline replay's, message by message. With several trigger topics (the measurement
+  sources of an observer: ``--trigger /joint_states /imu/data /mocap/pose``) each waits
+  for the next response message, whatever its stamp (a late measurement's answer carries
+  the newest stamp).
 
 Remap topics with ``--ros-args -r /y:=/joint_states``. A bag that cannot be played (missing
 topic, message type not installed, fewer messages than its metadata counts) stops with one
@@ -40,7 +43,7 @@ from dataclasses import dataclass, field
 import importlib
 import sys
 import time
-from typing import Optional, Sequence
+from typing import Optional, Sequence, Union
 
 import rclpy
 from rclpy.duration import Duration
@@ -157,8 +160,9 @@ class BagPlayer(Node):
         Publish ``/clock`` at each message's log time before the message.
     paced_by : str, optional
         Response topic; with it, each ``trigger`` message waits for its response.
-    trigger : str
-        The played topic whose messages expect a response.
+    trigger : str or sequence of str
+        The played topic(s) whose messages expect a response; with several, each waits for
+        the next response message.
     response_timeout : float
         Seconds to wait for a response before counting it unanswered and going on.
     wait_for : sequence of str
@@ -174,7 +178,7 @@ class BagPlayer(Node):
     """
 
     def __init__(self, playback: Playback, rate: float = 1.0, clock: bool = True,
-                 paced_by: Optional[str] = None, trigger: str = '/y',
+                 paced_by: Optional[str] = None, trigger: Union[str, Sequence[str]] = '/y',
                  response_timeout: float = 1.0, wait_for: Sequence[str] = (),
                  node_name: str = 'bag_player',
                  **kwargs) -> None:
@@ -186,18 +190,20 @@ class BagPlayer(Node):
         if clock and '/clock' in playback.topics:
             raise BagError(f'{playback.path}: the bag has /clock itself; play it with '
                            f'--no-clock or leave it out with --exclude /clock')
-        trigger = absolute_topic(trigger)
+        triggers = [trigger] if isinstance(trigger, str) else list(trigger)
+        triggers = [absolute_topic(topic) for topic in triggers]
         if paced_by is not None:
             paced_by = absolute_topic(paced_by)
-            if trigger not in playback.topics:
-                raise BagError(f'--trigger: {trigger} is not among the played topics '
-                               f'({playback.listing()})')
+            for trigger in triggers:
+                if trigger not in playback.topics:
+                    raise BagError(f'--trigger: {trigger} is not among the played topics '
+                                   f'({playback.listing()})')
             if paced_by in playback.topics:
                 raise BagError(f'--paced-by: {paced_by} is also played from the bag; leave '
                                f'it out with --exclude {paced_by}')
         wait_for = [absolute_topic(topic) for topic in wait_for]
         if paced_by is not None:
-            wait_for.append(trigger)
+            wait_for += triggers
         unknown = sorted(set(wait_for) - set(playback.topics))
         if unknown:
             raise BagError(f'--wait-for: {", ".join(unknown)} not among the played topics '
@@ -208,7 +214,8 @@ class BagPlayer(Node):
         self.playback = playback
         self.rate = rate
         self.paced_by = paced_by
-        self.trigger = trigger
+        self.triggers = triggers
+        self.by_count = len(triggers) > 1
         self.wait_for = wait_for
         self.response_timeout = response_timeout
         self.classes = classes
@@ -328,15 +335,17 @@ class BagPlayer(Node):
                 clock.clock.sec, clock.clock.nanosec = divmod(log_time, NANOSECONDS)
                 self.clock_publisher.publish(clock)
                 last_clock = log_time
-            paced = self.paced_by is not None and topic == self.trigger
+            paced = self.paced_by is not None and topic in self.triggers
             if paced:
-                stamp = _stamp_ns(deserialize_message(raw, self.classes[topic]))
+                stamp = (None if self.by_count
+                         else _stamp_ns(deserialize_message(raw, self.classes[topic])))
                 count_before = self._response_count
             self.publishers_by_topic[topic].publish(raw)
             published[topic] += 1
             if paced:
                 # The node stamps an unstamped (or zero-stamped) message with /clock.
-                expected = (stamp or log_time) if self._response_stamped else None
+                expected = ((stamp or log_time) if self._response_stamped
+                            and not self.by_count else None)
                 if self._await_response(executor, expected, count_before):
                     result.answered += 1
                 else:
@@ -372,8 +381,9 @@ def main(args: Optional[Sequence[str]] = None) -> int:
     parser.add_argument('--no-clock', action='store_true', help='do not publish /clock')
     parser.add_argument('--paced-by', metavar='TOPIC',
                         help='wait for the response on TOPIC (e.g. x_hat) after each trigger')
-    parser.add_argument('--trigger', default='/y', metavar='TOPIC',
-                        help='played topic that expects a response (default /y)')
+    parser.add_argument('--trigger', nargs='+', default=['/y'], metavar='TOPIC',
+                        help='played topic(s) whose messages expect a response (default /y; '
+                        'several: each waits for the next response)')
     parser.add_argument('--wait-for', nargs='+', default=[], metavar='TOPIC',
                         help='start once these played topics have a subscriber')
     parser.add_argument('--response-timeout', type=float, default=1.0, metavar='SECONDS')

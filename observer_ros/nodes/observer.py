@@ -32,6 +32,7 @@ clock, the estimate (and covariance) predicted to that time.
 """
 
 from collections import Counter
+from functools import partial
 import time
 from typing import Optional
 
@@ -40,13 +41,15 @@ from rclpy.clock import Clock, ClockType
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
+from observer_ros.app.health import sources_check
 from observer_ros.config import OBSERVER
 from observer_ros.core.errors import ConfigError, ObserverRosError
 from observer_ros.core.placement import preload_methods
 from observer_ros.core.rules import within_limit
 from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.diagnostics import monitor, NodeHealth
-from observer_ros.ros.messages import JointStatesEncoder, MalformedMessage, VectorCodec
+from observer_ros.ros.messages import (
+    JointStatesEncoder, MalformedMessage, source_codecs, topic_codec)
 from observer_ros.ros.parameters import ConfiguredNode
 from observer_ros.ros.run import run_node
 
@@ -78,7 +81,7 @@ class ObserverWiring:
         covariance = setup.kind.capabilities.covariance
         topics = ('y', 'u', 'x_hat', 'innovation') + (COVARIANCE_TOPICS if covariance else ())
         inputs = self.subscribes_input(system)
-        self.codecs = {topic: VectorCodec.for_topic(system, topic) for topic in topics}
+        self.codecs = {topic: topic_codec(system, topic) for topic in topics}
         self.n_states, self.x_hat_codec = system.model.n_states, self.codecs['x_hat']
         self.node_counters: Counter = Counter()
         self.publishers_ = {topic: self._publisher(topic) for topic in topics[2:]}
@@ -88,7 +91,13 @@ class ObserverWiring:
             self.joint_states = (JointStatesEncoder(setup.joint_states),
                                  self.topic_publisher(JointState, 'joint_states_hat'))
         self.limits = {topic: system.topics[topic].limit for topic in topics}
-        self.topic_subscription(self.codecs['y'].message_class, 'y', self._on_measurement)
+        # Measurement sources (observer.sources), each on its topic; else y with every output.
+        self.sources = source_codecs(system)
+        self.source_drops = {name: Counter() for name in self.sources}
+        for name, (topic, codec) in self.sources.items():
+            self.topic_subscription(codec.message_class, topic, partial(self._on_source, name))
+        if not self.sources:
+            self.topic_subscription(self.codecs['y'].message_class, 'y', self._on_measurement)
         if inputs:
             self.topic_subscription(self.codecs['u'].message_class, 'u', self._on_input)
         self.create_service(Trigger, '~/reset', self._on_reset)
@@ -99,10 +108,12 @@ class ObserverWiring:
         self._clock_floor = (0, 0)
         self.wait_timer.cancel()
         self._waiting_for = None
-        monitors = {'y': monitor(system, 'y', 0.0)}
+        monitors = {'y': monitor(system, 'y', 0.0)} if not self.sources else {
+            name: monitor(system, name, 0.0, rated=False) for name in self.sources}
         if inputs:
             monitors['u'] = monitor(system, 'u', 0.0, minimum_only=True)
-        self.health = NodeHealth(self, monitors, self.counters, estimator=True)
+        self.health = NodeHealth(self, monitors, self.counters, estimator=True,
+                                 extra=self._sources_check if setup.keeps_history else None)
         self.diagnostics = self.health.publisher
         rate = setup.publish_rate
         self.prediction_timer = (self.create_timer(1.0 / rate, self._on_prediction_time)
@@ -190,17 +201,20 @@ class ObserverWiring:
             return floor
         return self._now_ns()
 
-    def _decode(self, topic: str, message):
+    def _decode(self, topic: str, message, codec=None):
+        codec = codec or self.codecs[topic]
         try:
-            stamp, vector = self.codecs[topic].decode_values(message)
+            stamp, vector = codec.decode_values(message)
         except MalformedMessage as e:
             self.node_counters['malformed'] += 1
+            if topic in self.source_drops:
+                self.source_drops[topic]['malformed'] += 1
             self.warn_once(f'malformed {topic}', f'dropped a malformed message: {e}')
             return None, None
         if topic in self.health.monitors:
             self.health.tick(topic, stamp)
         if stamp is None:
-            if self.codecs[topic].stamped:
+            if codec.stamped:
                 self.warn_once(f'zero stamp {topic}',
                                f'{topic}: messages with a zero stamp are stamped on arrival')
             stamp = self._now_ns()
@@ -211,6 +225,18 @@ class ObserverWiring:
         if y is not None:
             self._run(self.stream.add_measurement, stamp, y, self._clock_for(stamp),
                       time.monotonic_ns())
+
+    def _on_source(self, name: str, message) -> None:
+        topic, codec = self.sources[name]
+        stamp, y = self._decode(name, message, codec)
+        if y is not None:
+            self._run(self.stream.add_measurement, stamp, y, self._clock_for(stamp),
+                      time.monotonic_ns(), name)
+
+    def _sources_check(self, now_ns: int) -> list:
+        """Return the ``sources`` check: per source counts, age, re-runs and the history in use."""
+        report = self.stream.source_report(self.get_clock().now().nanoseconds)
+        return [sources_check(report, self.source_drops, self.stream.engine.history_depth())]
 
     def _on_input(self, message) -> None:
         stamp, u = self._decode('u', message)
@@ -276,11 +302,14 @@ class ObserverWiring:
         for sample in samples:
             stamp = sample.stamp_ns
             self._last_published_ns = max(self._last_published_ns, stamp)
-            self._publish_on('innovation', stamp, sample.innovation)
-            self.health.sample(sample.innovation, sample.nis, sample.covariance)
+            # An update with some of the outputs has no p-vector innovation to publish.
+            whole = getattr(sample, 'outputs', None) is None
+            if whole:
+                self._publish_on('innovation', stamp, sample.innovation)
+                self.health.sample(sample.innovation, sample.nis, sample.covariance)
             if sample.covariance is not None:
                 self._publish_on('x_hat_covariance', stamp, np.ravel(sample.covariance))
-            if sample.innovation_covariance is not None:
+            if whole and sample.innovation_covariance is not None:
                 self._publish_on('innovation_covariance', stamp,
                                  np.ravel(sample.innovation_covariance))
                 self._publish_on('nis', stamp, [sample.nis])

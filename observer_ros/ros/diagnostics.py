@@ -137,11 +137,15 @@ class NodeHealth:
         Returns the node's counters (a mapping).
     estimator : bool
         Also report the ``estimator`` section (the observer).
+    extra : callable, optional
+        ``extra(now_ns)`` returns more checks (the observer's ``sources``).
 
     """
 
     def __init__(self, node, monitors: dict, counters: Callable[[], dict],
-                 estimator: bool = False) -> None:
+                 estimator: bool = False,
+                 extra: Optional[Callable[[int], list]] = None) -> None:
+        self.extra = extra
         self.node = node
         self.monitors = monitors
         self.counters = counters
@@ -235,6 +239,8 @@ class NodeHealth:
                               now_ns)]
         if self.estimator:
             checks.append(self.estimator_check())
+        if self.extra is not None:
+            checks += self.extra(now_ns)
         return checks
 
 

@@ -42,7 +42,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from observer_ros.config import Configuration
-from observer_ros.config.schema import topic_names
+from observer_ros.config.schema import FIELD_MESSAGE_TYPES, topic_names
 from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.cdr import (
     ANGLES, DecodeError, FieldReader, FieldWriter, FLOAT64_MULTI_ARRAY, HEADER,
@@ -365,6 +365,33 @@ class FieldCodec(WireDecoding):
         if self.stamped:
             check_publishable_stamp(stamp_ns)
         return self._writer.write(stamp_ns, vector)
+
+
+def topic_codec(system: Configuration, topic: str):
+    """
+    Return the codec of a vector topic: by field path where ``topics.<topic>.fields`` says.
+
+    ``topics.u.fields`` (``linear.x``, ``angular.z`` of a ``geometry_msgs/Twist`` on
+    ``/cmd_vel``; ``data[0]`` of a ``Float64MultiArray`` command) gives a
+    :class:`FieldCodec` of ``topics.u.type``; any other topic a :class:`VectorCodec`.
+    """
+    settings = system.topics[topic]
+    if settings.fields:
+        return FieldCodec(topic, FIELD_MESSAGE_TYPES[settings.type], settings.fields)
+    return VectorCodec.for_topic(system, topic)
+
+
+def source_codecs(system: Configuration) -> dict:
+    """
+    Return ``{source name: (topic, FieldCodec)}`` of the measurement sources, in order.
+
+    Empty without ``observer.sources`` (one source, ``topics.y``).
+    """
+    sources = system.observer.sources
+    if sources is None:
+        return {}
+    return {settings.name: (settings.topic, FieldCodec(settings.name, msgtype, settings.fields))
+            for settings, msgtype in zip(sources.settings, sources.msgtypes)}
 
 
 class JointStatesEncoder:

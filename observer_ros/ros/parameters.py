@@ -32,6 +32,8 @@ from rclpy.subscription import Subscription
 
 from observer_ros.config import (
     Configuration, node_parameters, PARAMETER_SPECS, ParameterSpec, validate_parameters)
+from observer_ros.config.schema import source_specs
+from observer_ros.config.sections import source_names, SOURCES_PREFIX
 from observer_ros.core.arguments import (
     BOOL, DOUBLE, DOUBLE_ARRAY, INTEGER, STRING, STRING_ARRAY)
 from observer_ros.core.errors import ConfigError, DesignError
@@ -118,12 +120,31 @@ class SchemaParameters:
         self.specs = {spec.name: spec for spec in node_parameters(role, managed)}
         self.system: Optional[Configuration] = None
         self._pending: Optional[Configuration] = None
-        for spec in self.specs.values():
+        for spec in list(self.specs.values()):
             self._declare(spec)
+        self._declare_sources()
         self._warn_unknown_overrides()
         self.add_pre_set_parameters_callback(self._coerce_parameters)
         self.add_on_set_parameters_callback(self._vet_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
+
+    def _declare_sources(self) -> None:
+        """
+        Declare ``sources.<name>.*`` of each name ``observer.sources`` gives (when declared).
+
+        The names are read once, at declaration: ``observer.sources`` is structural. Names
+        that are not valid are left to the validation, which refuses them by name.
+        """
+        if 'observer.sources' not in self.specs:
+            return
+        try:
+            names = source_names(list(self.get_parameter('observer.sources').value))
+        except ConfigError:
+            return
+        for name in names:
+            for spec in source_specs(name):
+                self.specs[spec.name] = spec
+                self._declare(spec)
 
     def _declare(self, spec: ParameterSpec) -> None:
         # rclpy refuses an integer from a parameter file for a double parameter: read the
@@ -169,7 +190,8 @@ class SchemaParameters:
         sections = {name.split('.', 1)[0] + '.' for name in self.specs}
         given = self._overrides()
         unknown = sorted(name for name in given if name.startswith(tuple(sections))
-                         and name not in PARAMETER_SPECS)
+                         and name not in PARAMETER_SPECS and name not in self.specs
+                         and not name.startswith(SOURCES_PREFIX))
         for name in unknown:
             self.get_logger().warning(
                 f'unknown parameter {name} in the parameter file is ignored (see the '
@@ -180,8 +202,18 @@ class SchemaParameters:
         self.warn_once('invalid clock', f'dropped a /clock message: {problem}')
 
     def current_parameters(self) -> dict:
-        """Return this node's schema parameters as a flat ``{name: value}`` mapping."""
-        return {name: self.get_parameter(name).value for name in self.specs}
+        """
+        Return this node's schema parameters as a flat ``{name: value}`` mapping.
+
+        With ``observer.sources``, the parameter file's ``sources.*`` that no named source
+        has are included, so that the validation refuses them by name.
+        """
+        current = {name: self.get_parameter(name).value for name in self.specs}
+        if 'observer.sources' in self.specs:
+            current.update({name: parameter.value
+                            for name, parameter in self._overrides().items()
+                            if name.startswith(SOURCES_PREFIX) and name not in self.specs})
+        return current
 
     def _coerce_parameters(self, parameters) -> list:
         return [coerced(self.specs[p.name], p) if p.name in self.specs else p

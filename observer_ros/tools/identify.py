@@ -37,11 +37,11 @@ from observer_ros.app.parallel import add_worker_arguments, single_threaded_blas
 from observer_ros.app.run_report import fit_figure, HtmlReport, singular_values_figure
 from observer_ros.bags.filter_config import model_document, write_validated
 from observer_ros.bags.identification import HOLDOUT, Identification, identify_bags, SignalSpec
-from observer_ros.bags.storage import BagError
-from observer_ros.core.errors import ConfigError, DesignError
+from observer_ros.bags.storage import TopicRequest
+from observer_ros.config.schema import INPUT_MESSAGE_TYPES
 from observer_ros.core.tuning.subspace import order_advice
 from observer_ros.signals import stops_on_signal
-from observer_ros.tools.outputs import checked_bags
+from observer_ros.tools.outputs import run_tool
 
 REPORT_NAME = 'identify'
 
@@ -100,8 +100,10 @@ def model_text(result: Identification, text: str) -> str:
     q = np.eye(n_states) * START_PROCESS_NOISE * float(np.trace(r)) / n_states
     topics = {}
     for role, chosen in (('u', signals.input_topics), ('y', signals.output_topics)):
-        if len(chosen) == 1:
+        if len(chosen) == 1 and isinstance(chosen[0], TopicRequest):
             topics[role] = {'type': chosen[0].kind, 'field': chosen[0].field}
+        elif len(chosen) == 1 and role == 'u' and chosen[0].kind in INPUT_MESSAGE_TYPES:
+            topics[role] = {'type': chosen[0].kind, 'fields': list(chosen[0].fields)}
     document = model_document(a, b, model.c, model.d, dt,
                               [f'x{i + 1}' for i in range(n_states)], signals.input_names,
                               signals.output_names, r, q, topics)
@@ -139,9 +141,11 @@ def main(args=None) -> int:
     parser.add_argument('bags', nargs='+', metavar='BAG', help='rosbag2 bags or folders of bags')
     parser.add_argument('--order', type=int, required=True, help='number of states n')
     parser.add_argument('--inputs', nargs='+', default=['u'], metavar='TOPIC',
-                        help='input topics, TOPIC[:FIELD[:JOINT,...]] (default u)')
+                        help='input topics, TOPIC[:FIELD[:JOINT,...]] or '
+                        'TOPIC:PATH[,PATH...] (default u)')
     parser.add_argument('--outputs', nargs='+', default=['y'], metavar='TOPIC',
-                        help='output topics, TOPIC[:FIELD[:JOINT,...]] (default y)')
+                        help='output topics, TOPIC[:FIELD[:JOINT,...]] or '
+                        'TOPIC:PATH[,PATH...] (default y)')
     parser.add_argument('--continuous', action='store_true',
                         help='write the continuous model (zero-order hold inverted)')
     parser.add_argument('--holdout', type=float, default=HOLDOUT,
@@ -149,6 +153,9 @@ def main(args=None) -> int:
                         f'{HOLDOUT})')
     parser.add_argument('--horizon', type=int, default=None,
                         help='block rows of the Hankel matrices (default max(2 n, 20))')
+    parser.add_argument('--use-log-time', action='store_true',
+                        help='stamp every topic with its log times instead of its header '
+                        'stamps (inputs without a header in a bag recorded in sim time)')
     parser.add_argument('-o', '--output', metavar='FILE', help='write the model parameter file')
     parser.add_argument('--report', metavar='DIR', help='write DIR/identify.html')
     add_worker_arguments(parser, 'read')
@@ -158,25 +165,18 @@ def main(args=None) -> int:
 
 
 def _run(options) -> int:
-    try:
-        bags = checked_bags(options)
+    def compute(bags):
         inputs = [SignalSpec.parse(text) for text in options.inputs]
         outputs = [SignalSpec.parse(text) for text in options.outputs]
         with task_mapper(options.workers, options.dask) as mapper:
             result = identify_bags(bags, inputs, outputs, options.order, mapper, options.holdout,
-                                   options.horizon, options.continuous)
-        text = summary(result, options.order)
-        if options.output:
-            write_validated(Path(options.output), model_text(result, text))
-    except (BagError, ConfigError, DesignError, ValueError, OSError) as e:
-        print(f'identify: error: {e}', file=sys.stderr)
-        return 2
-    print(text)
-    if options.output:
-        print(f'model: {options.output}')
-    if options.report:
-        print(f'report: {write_report(options.report, result, options.order, text)}')
-    return 0
+                                   options.horizon, options.continuous, options.use_log_time)
+        return result, summary(result, options.order)
+
+    return run_tool(
+        'identify', options, compute,
+        lambda result, text: write_validated(Path(options.output), model_text(result, text)),
+        'model', lambda result, text: write_report(options.report, result, options.order, text))
 
 
 if __name__ == '__main__':

@@ -12,13 +12,16 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""Checks that a tool's output paths can be written, made before anything is."""
+"""The offline tools' common ends: output paths checked before anything is made, one run shape."""
 
 from pathlib import Path
+import sys
+from typing import Callable
 
 from observer_ros.bags.collection import expand_bags
 from observer_ros.bags.replay_outputs import check_writable_parent
 from observer_ros.bags.storage import BagError
+from observer_ros.core.errors import ConfigError, DesignError
 
 
 def check_file(option: str, path) -> None:
@@ -46,4 +49,29 @@ def checked_bags(options) -> list:
     return expand_bags(options.bags)
 
 
-__all__ = ['check_file', 'check_report_directory', 'checked_bags']
+def run_tool(tool: str, options, compute: Callable[[list], tuple],
+             write_output: Callable, output_label: str, write_report: Callable) -> int:
+    """
+    Run a bag tool: check its outputs, compute, write; one error line and status 2 on failure.
+
+    ``compute(bags)`` returns ``(result, text)``; ``write_output(result, text)`` writes
+    ``options.output`` (inside the error handling: a refused file is an error, not a crash);
+    ``write_report(result, text)`` writes the report and returns its path.
+    """
+    try:
+        bags = checked_bags(options)
+        result, text = compute(bags)
+        if options.output:
+            write_output(result, text)
+    except (BagError, ConfigError, DesignError, ValueError, OSError) as e:
+        print(f'{tool}: error: {e}', file=sys.stderr)
+        return 2
+    print(text)
+    if options.output:
+        print(f'{output_label}: {options.output}')
+    if options.report:
+        print(f'report: {write_report(result, text)}')
+    return 0
+
+
+__all__ = ['check_file', 'check_report_directory', 'checked_bags', 'run_tool']

@@ -36,12 +36,11 @@ import numpy as np
 from observer_ros.app.parallel import add_worker_arguments, single_threaded_blas, task_mapper
 from observer_ros.app.run_report import filter_run_section, HtmlReport
 from observer_ros.bags.filter_config import load_kalman_setup
-from observer_ros.bags.storage import BagError
 from observer_ros.bags.tuning import ITERATIONS, normalized_squares, tune_noises, TuningRun
-from observer_ros.core.errors import ConfigError, DesignError
+from observer_ros.core.errors import ConfigError
 from observer_ros.core.tuning.als import NoiseStructure, STRUCTURES, WEIGHTINGS
 from observer_ros.signals import stops_on_signal
-from observer_ros.tools.outputs import checked_bags
+from observer_ros.tools.outputs import run_tool
 
 REPORT_NAME = 'tune_kalman'
 KNOWN = re.compile(r'^\s*([QR])\[\s*([^,\]]+?)\s*,\s*([^\]]+?)\s*\]\s*=\s*(.+)$')
@@ -212,8 +211,7 @@ def main(args=None) -> int:
 
 
 def _run(options) -> int:
-    try:
-        bags = checked_bags(options)
+    def compute(bags):
         setup = load_kalman_setup(options.params)
         known = parse_known(options.known, setup.state_names, setup.output_names)
         structure = NoiseStructure.build(setup.model.n_states, setup.model.n_outputs,
@@ -223,19 +221,15 @@ def _run(options) -> int:
             outcome = tune_noises(bags, setup, structure, mapper, options.lags, options.burn_in,
                                   options.iterations, options.y_topic, options.u_topic,
                                   options.weighting, 'x_true' if options.report else None)
-        text = summary(outcome, bags)
-        if options.output:
-            outcome.tuned.write(options.output, header=f'Tuned by tune_kalman from '
-                                f'{len(bags)} bag(s); see its report.\n' + text)
-    except (BagError, ConfigError, DesignError, ValueError, OSError) as e:
-        print(f'tune_kalman: error: {e}', file=sys.stderr)
-        return 2
-    print(text)
-    if options.output:
-        print(f'tuned parameters: {options.output}')
-    if options.report:
-        print(f'report: {write_report(options.report, outcome, bags, text)}')
-    return 0
+        return (outcome, bags), summary(outcome, bags)
+
+    def write_output(result, text):
+        outcome, bags = result
+        outcome.tuned.write(options.output, header=f'Tuned by tune_kalman from {len(bags)} '
+                            f'bag(s); see its report.\n' + text)
+
+    return run_tool('tune_kalman', options, compute, write_output, 'tuned parameters',
+                    lambda result, text: write_report(options.report, *result, text))
 
 
 if __name__ == '__main__':
