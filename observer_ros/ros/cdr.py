@@ -37,6 +37,7 @@ wanted doubles. A quaternion offers its ``roll``, ``pitch`` and ``yaw`` as deriv
 
 from dataclasses import dataclass
 import math
+from operator import itemgetter
 import struct
 from typing import Optional, Sequence
 
@@ -656,13 +657,21 @@ def _picker(steps: list):
     """
     Return a function of the doubles read that gives the wanted fields, in order.
 
-    Made once per reader (the way :func:`collections.namedtuple` makes its methods): a
-    plain list of indexed doubles and angle calls, with no loop or test per message.
+    Made once per reader: an ``itemgetter`` over the indexed doubles when no angle is asked
+    for (no loop or test per message), else one list of indices and angle calls.
     """
-    terms = [f'v[{step[0]}]' if len(step) == 1
-             else f'{step[0]}(v[{step[1]}], v[{step[2]}], v[{step[3]}], v[{step[4]}])'
+    indices = [step[0] for step in steps if len(step) == 1]
+    if len(indices) == len(steps):
+        if len(indices) == 1:
+            index = indices[0]
+            return lambda v: [v[index]]
+        getter = itemgetter(*indices)
+        return lambda v: list(getter(v))
+    calls = [(None, step[0]) if len(step) == 1 else (_ANGLE_OF[step[0]], *step[1:])
              for step in steps]
-    return eval(f'lambda v: [{", ".join(terms)}]', dict(_ANGLE_OF))  # noqa: S307
+    return lambda v: [v[call[1]] if call[0] is None
+                      else call[0](v[call[1]], v[call[2]], v[call[3]], v[call[4]])
+                      for call in calls]
 
 
 class _FixedReader:
