@@ -235,6 +235,17 @@ def prepare(directory: Path) -> None:
         (directory / '.venv').symlink_to(sys.prefix)
 
 
+def _wait_for_group_exit(group: int, seconds: float) -> None:
+    """Wait up to ``seconds`` until no process of ``group`` is left."""
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        try:
+            os.killpg(group, 0)
+        except ProcessLookupError:
+            return
+        time.sleep(0.05)
+
+
 def run(argv: list, directory: Path, environment: dict) -> tuple:
     """
     Run ``argv`` in a process group of its own; return its exit status and output.
@@ -256,7 +267,7 @@ def run(argv: list, directory: Path, environment: dict) -> tuple:
                     os.killpg(process.pid, stop)
                 except ProcessLookupError:
                     break
-                time.sleep(2)
+                _wait_for_group_exit(process.pid, 2.0)
             process.wait()
         out.seek(0)
         err.seek(0)
