@@ -41,7 +41,7 @@ from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.units import NANOSECONDS
 from observer_ros.nodes.observer_controller import ObserverControllerNode
-from observer_ros.nodes.plant_simulator import PlantSimulatorNode
+from observer_ros.nodes.plant_simulator import PlantSimulatorNode, START_POLL
 from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.executors import EXECUTORS, make_executor
 from observer_ros.ros.messages import ns_to_stamp, stamp_to_ns
@@ -607,6 +607,23 @@ def test_real_time_plant_publishes_nothing_before_its_peers(plant_factory, execu
     assert bench.samples['y'][0][1] == bench.plant.start_ns
     assert bench.samples['x_true'][0][1] == bench.plant.start_ns
     assert bench.plant.counters.get('started_without_peers', 0) == 0
+
+
+@pytest.mark.parametrize('settle', [0.4, 0.0])
+def test_real_time_plant_waits_its_settle_time_after_the_peers_match(plant_factory, settle):
+    # Discovery goes on after the first match (the other topics, the other direction); the
+    # first sample waits plant.settle_time after the peers are there, and 0 starts at once.
+    bench = plant_factory('events', plant__settle_time=settle)
+    bench.y = bench.subscribe('y')
+    bench.command_publisher = bench.node.create_publisher(JointState, 'u_cmd', 10)
+    assert spin_until(bench.executor, lambda: not bench.plant.missing_peers(), 5.0)
+    matched = time.monotonic()
+    assert spin_until(bench.executor, lambda: bench.samples['y'], 5.0)
+    waited = bench.samples['y'][0][0] - matched
+    assert waited >= settle - START_POLL, waited
+    if settle == 0.0:
+        assert waited < 0.3, waited  # no settling: the next poll, on a loaded machine too
+    assert bench.samples['y'][0][1] == bench.plant.start_ns
 
 
 def test_plant_start_timeout_starts_anyway_with_a_warning(plant_factory):

@@ -60,7 +60,7 @@ class PlantSettings:
     samples : int
         Samples to simulate (0: until shut down).
     lockstep : bool
-    lockstep_timeout, start_timeout : float
+    lockstep_timeout, start_timeout, settle_time : float
         Wall-clock seconds.
     lockstep_subscribers : int
     wait_for_command : bool
@@ -84,6 +84,7 @@ class PlantSettings:
     lockstep_subscribers: int = 1
     wait_for_command: bool = True
     start_timeout: float = 10.0
+    settle_time: float = 0.5
 
     @property
     def period_ns(self) -> int:
@@ -139,4 +140,5 @@ def plant_settings(sections: Sections, augmentation: Augmentation) -> PlantSetti
         input_offset=input_offset, samples=section.samples, lockstep=section.lockstep,
         lockstep_timeout=section.lockstep_timeout,
         lockstep_subscribers=section.lockstep_subscribers,
-        wait_for_command=section.wait_for_command, start_timeout=section.start_timeout)
+        wait_for_command=section.wait_for_command, start_timeout=section.start_timeout,
+        settle_time=section.settle_time)

@@ -327,6 +327,10 @@ PLANT_PARAMETERS = (
     _seconds('plant.start_timeout', 10.0, 'Wall-clock seconds to wait for those peers; then '
              'the plant starts anyway with a warning naming what is missing. 0 waits without '
              'limit (0 ... 3600).', 0.0, 3600.0, _PL),
+    _seconds('plant.settle_time', 0.5, 'Wall-clock seconds the plant waits, once its peers are '
+             'matched, before its first sample (lockstep and real time): the rest of '
+             'discovery (the other topics, the other direction) goes on after the first '
+             'match and would delay the first samples (0 ... 60).', 0.0, 60.0, _PL),
     _seconds('plant.command_timeout', 0.5, 'Seconds without a new u_cmd after which the plant '
              'applies plant.safe_input until the next command (counted, warned once per '
              'outage); steady clock in real time, simulated time in lockstep. More than one '

@@ -386,6 +386,7 @@ class PlantSection(Section):
     lockstep_subscribers: int = bound('plant.lockstep_subscribers')
     wait_for_command: bool = bound('plant.wait_for_command')
     start_timeout: float = bound('plant.start_timeout')
+    settle_time: float = bound('plant.settle_time')
     command_timeout: float = bound('plant.command_timeout')
     input_offset: list = bound('plant.input_offset')
     safe_input: list = bound('plant.safe_input')

@@ -28,16 +28,17 @@ clock, lockstep in simulated time. A ``u_cmd`` beyond ``topics.u_cmd.limit`` is 
 counted (``out_of_range``).
 
 Start: no sample is published before ``plant.lockstep_subscribers`` subscriptions on ``y``
-have matched and, with ``plant.wait_for_command``, a publisher on ``u_cmd`` has; after
-``plant.start_timeout`` wall-clock seconds without them the plant starts anyway with a
-warning naming what is missing. A steady timer polls for them; nothing blocks.
+have matched and, with ``plant.wait_for_command``, a publisher on ``u_cmd`` has, and they
+have stayed matched for ``plant.settle_time`` wall-clock seconds (the rest of discovery goes
+on after the first match); after ``plant.start_timeout`` wall-clock seconds without them the
+plant starts anyway with a warning naming what is missing. A steady timer polls for them;
+nothing blocks.
 
 Real time: then a timer on the node clock ticks at ``plant.rate_hz``, the first sample at
-once. Lockstep (``plant.lockstep: true``): after its peers have been there for
-:data:`LOCKSTEP_SETTLE` seconds the plant publishes ``/clock`` itself and moves to the next
-sample only once the command computed from the current sample (stamped ``t_k``) has arrived,
-or after ``plant.lockstep_timeout`` wall-clock seconds with a warning; runs are deterministic
-and as fast as the nodes answer.
+once. Lockstep (``plant.lockstep: true``): the plant publishes ``/clock`` itself and moves to
+the next sample only once the command computed from the current sample (stamped ``t_k``) has
+arrived, or after ``plant.lockstep_timeout`` wall-clock seconds with a warning; runs are
+deterministic and as fast as the nodes answer.
 
 A model without inputs (``model.B`` empty) is simulated autonomously: no ``u_cmd``
 subscription, no ``u`` topic, no wait for a command (real time only).
@@ -64,9 +65,6 @@ from observer_ros.ros.parameters import ConfiguredNode
 from observer_ros.ros.qos import publisher_qos
 from observer_ros.ros.run import run_node
 
-#: Wall-clock seconds the lockstep plant waits after its peers are discovered.
-LOCKSTEP_SETTLE = 0.5
-
 #: Wall-clock seconds between two looks for the peers the plant waits for at start.
 START_POLL = 0.02
 
@@ -91,6 +89,7 @@ class PlantSimulatorNode(ConfiguredNode):
         self.autonomous = system.model.n_inputs == 0
         self.wait_for_command = plant.wait_for_command and not self.autonomous
         self.start_timeout = plant.start_timeout
+        self.settle_ns = round(plant.settle_time * NANOSECONDS)
         self.command_timeout_ns = round(plant.command_timeout * NANOSECONDS)
         self.safe_input = self.simulator.saturate(plant.safe_input)
         self.command_limit = system.topics['u_cmd'].limit
@@ -248,11 +247,8 @@ class PlantSimulatorNode(ConfiguredNode):
             self.get_logger().warning(
                 f'starting without {" and ".join(missing)}: plant.start_timeout = '
                 f'{self.start_timeout:g} s passed')
-        elif self.lockstep:
-            if self.peers_seen_ns is None:
-                self.peers_seen_ns = now
-            if now - self.peers_seen_ns < LOCKSTEP_SETTLE * NANOSECONDS:
-                return
+        elif self._settling(now):
+            return
         self.start_timer.cancel()
         self.started = True
         if self.lockstep:
@@ -261,6 +257,12 @@ class PlantSimulatorNode(ConfiguredNode):
             self.start_ns = self.get_clock().now().nanoseconds
             self.tick_timer = self.create_timer(self.period, self._tick)
             self._tick()
+
+    def _settling(self, now_ns: int) -> bool:
+        """Whether the peers have been matched for less than ``plant.settle_time``."""
+        if self.peers_seen_ns is None:
+            self.peers_seen_ns = now_ns
+        return now_ns - self.peers_seen_ns < self.settle_ns
 
     def _lockstep_sample(self) -> None:
         if self._finish_if_done():
