@@ -37,6 +37,21 @@ from ros_support import ros_context
 SEED003 = CONFIG_DIR / 'seed003_full_order.yaml'
 
 
+@pytest.mark.parametrize('node_class', [ObserverNode, ObserverControllerNode])
+def test_the_design_for_the_expected_interval_is_made_at_start_up(node_class):
+    # Seed 003 is continuous: each new interval is designed (pole placement, about a
+    # millisecond). The interval of diagnostics.expected_rate is designed when the node is
+    # built, not in the callback of the second sample, where it held up the first commands.
+    with ros_context('--params-file', str(SEED003), '-p',
+                     'diagnostics.expected_rate:=1000.0') as context:
+        node = node_class(context=context)
+        try:
+            intervals = node.stream.estimator.intervals
+            assert 1_000_000 in intervals and 10_000_000 not in intervals
+        finally:
+            node.destroy_node()
+
+
 @pytest.mark.parametrize('node_class', [ObserverNode, StateFeedbackNode, PlantSimulatorNode,
                                         ObserverLifecycleNode, ObserverControllerNode,
                                         ObserverControllerLifecycleNode])

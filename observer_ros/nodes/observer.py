@@ -44,6 +44,7 @@ from std_srvs.srv import Trigger
 from observer_ros.app.health import sources_check
 from observer_ros.config import OBSERVER
 from observer_ros.core.errors import ConfigError, ObserverRosError
+from observer_ros.core.estimators.intervals import IntervalDesigns
 from observer_ros.core.placement import preload_methods
 from observer_ros.core.rules import within_limit
 from observer_ros.core.units import NANOSECONDS
@@ -78,6 +79,7 @@ class ObserverWiring:
         preload_methods()  # no placement method may import a module on a callback path
         setup = system.observer
         self.stream = setup.make_stream()
+        self._design_expected_interval(system)
         covariance = setup.kind.capabilities.covariance
         topics = ('y', 'u', 'x_hat', 'innovation') + (COVARIANCE_TOPICS if covariance else ())
         inputs = self.subscribes_input(system)
@@ -125,6 +127,19 @@ class ObserverWiring:
             f'{[complex(p) for p in design.achieved_poles]}'
             + (' (designed again for each new sample interval)'
                if setup.designs_per_interval else ''))
+
+    def _design_expected_interval(self, system) -> None:
+        """Make the design of the expected sample interval now, not at the second sample."""
+        estimator = self.stream.estimator
+        if not isinstance(estimator, IntervalDesigns):
+            return
+        period_ns = round(NANOSECONDS / system.sample_rate_hz)
+        try:
+            estimator.intervals.peek(period_ns)
+        except ObserverRosError as e:
+            self.get_logger().warning(
+                f'no design for the expected sample interval ({period_ns} ns, from '
+                f'diagnostics.expected_rate or the plant rate): {e}')
 
     def pause(self) -> None:
         """Deactivation: stop the timers; the estimator restarts at the next activation."""

@@ -121,6 +121,10 @@ class IntervalCache:
         """Return the value of an interval (made now if new) without counting it as recent."""
         return self._lookup(self.key(dt_ns))
 
+    def __contains__(self, dt_ns: int) -> bool:
+        """Whether the value of an interval is made already (a lookup would not make it)."""
+        return self.key(dt_ns) in self._values
+
     def _lookup(self, key: int) -> Any:
         values = self._values
         value = values.get(key)
