@@ -34,9 +34,10 @@ import time
 import rclpy
 from rclpy.parameter import Parameter
 
-from benchmarks.common import CONFIG_DIR, pyplot, REPOSITORY, RUN_LENGTH, Section
+from benchmarks.common import (CONFIG_DIR, pyplot, REPOSITORY, RUN_LENGTH, Section,
+                               stolen_seconds)
+from observer_ros.config.plant import PlantSettings
 from observer_ros.nodes.closed_loop import ClosedLoop
-from observer_ros.nodes.plant_simulator import LOCKSTEP_SETTLE
 from observer_ros.ros.executors import make_executor
 
 CONFIG = CONFIG_DIR / 'seed003_full_order.yaml'
@@ -51,6 +52,8 @@ def on_time_fraction(samples: int, on_time: int, first: int) -> float:
 #: Goals at 1 kHz, worst of the runs: two processes (plant and controller), three processes.
 GOAL_TWO, GOAL_THREE = 0.995, 0.99
 GOAL_RATE = 1000.0
+#: The rate of a run, given to every node: the plant's, and the one the others expect.
+RATE_PARAMETERS = ('plant.rate_hz', 'diagnostics.expected_rate')
 
 
 def one_process(rate: float, seconds: float, lockstep: bool = False,
@@ -59,7 +62,7 @@ def one_process(rate: float, seconds: float, lockstep: bool = False,
     samples = int(rate * seconds)
     context = rclpy.Context()
     rclpy.init(args=['bench', '--ros-args', '--params-file', str(CONFIG)], context=context)
-    overrides = [Parameter('plant.rate_hz', value=float(rate)),
+    overrides = [*(Parameter(name, value=float(rate)) for name in RATE_PARAMETERS),
                  Parameter('plant.samples', value=samples),
                  Parameter('plant.lockstep', value=lockstep)]
     loop = ClosedLoop(context=context, overrides=overrides,
@@ -81,7 +84,9 @@ def processes(rate: float, seconds: float, executor: str = 'events',
               nodes=('observer', 'state_feedback')) -> float:
     """Run the plant and ``nodes`` as processes; return the on-time fraction."""
     samples = int(rate * seconds)
-    common = ['--executor', executor, '--ros-args', '--params-file', str(CONFIG)]
+    # Every node is told the rate, as one YAML file would: the observer designs for it.
+    common = ['--executor', executor, '--ros-args', '--params-file', str(CONFIG),
+              *(item for name in RATE_PARAMETERS for item in ('-p', f'{name}:={float(rate)}'))]
     runner = [sys.executable, '-m', 'benchmarks.ros_runner']
 
     def start(command, *extra):
@@ -91,8 +96,7 @@ def processes(rate: float, seconds: float, executor: str = 'events',
     helpers = [start([*runner, name]) for name in nodes]
     try:
         # The plant's first sample waits until y has a subscriber and u_cmd a publisher.
-        plant = start([*runner, 'plant_simulator'],
-                      '-p', f'plant.rate_hz:={float(rate)}', '-p', f'plant.samples:={samples}')
+        plant = start([*runner, 'plant_simulator'], '-p', f'plant.samples:={samples}')
         _, err = plant.communicate(timeout=seconds * 5 + 60)
     finally:
         for helper in helpers:
@@ -133,23 +137,47 @@ def run(smoke: bool, figures) -> Section:
     seconds = RUN_LENGTH.get('seconds') or (0.5 if smoke else 2.0)
     runs = RUN_LENGTH.get('runs') or (1 if smoke else 5)
     fractions = {(setup, executor): [] for setup in SETUPS for executor in ('single', 'events')}
+    stolen = {key: [] for key in fractions}  # per rate: host steal (s) in each run
     for rate in rates:
-        for (setup, executor), values in fractions.items():
-            values.append([SETUPS[setup](rate, seconds, executor) for _ in range(runs)])
+        for key, values in fractions.items():
+            runs_here, steals = [], []
+            for _ in range(runs):
+                before = stolen_seconds()
+                runs_here.append(SETUPS[key[0]](rate, seconds, key[1]))
+                after = stolen_seconds()
+                steals.append(None if before is None or after is None else after - before)
+            values.append(runs_here)
+            stolen[key].append(steals)
+
+    def cell(key, i) -> str:
+        values, steals = fractions[key][i], stolen[key][i]
+        worst = min(range(len(values)), key=values.__getitem__)
+        steal = steals[worst]
+        return f'{100 * values[worst]:.1f} %' + ('' if steal is None else
+                                                 f' ({1000 * steal:.0f})')
+
     header = ['rate (Hz)', *(f'{setup}, {executor}' for setup, executor in fractions)]
-    rows = [[f'{rate:g}', *(f'{100 * min(values[i]):.1f} %' for values in fractions.values())]
-            for i, rate in enumerate(rates)]
+    rows = [[f'{rate:g}', *(cell(key, i) for key in fractions)] for i, rate in enumerate(rates)]
+    steals = [s for per_key in stolen.values() for per_rate in per_key for s in per_rate
+              if s is not None]
     section.add(f'seed 003 (full-order observer and state feedback), {seconds:g} s per run, '
                 f'{runs} run{"s" if runs > 1 else ""} per rate, set-up and executor; the worst '
                 "run's share of the samples (after the first command) that applied the "
                 'command computed from the previous sample. One process: `closed_loop` (the '
                 'three nodes on one executor; "controller": the plant and the '
                 'observer-controller). Two processes: the plant and `observer_controller`. '
-                'Three processes: the plant, `observer` and `state_feedback`. With processes '
-                'the first sample of the plant waits until its endpoints are matched and '
-                f'{LOCKSTEP_SETTLE:g} s more (discovery between processes can take seconds: '
-                'README, Honest limits).', '')
+                'Three processes: the plant, `observer` and `state_feedback`. Every node gets '
+                'the rate (`plant.rate_hz`, `diagnostics.expected_rate`). The first sample of '
+                'the plant waits until its endpoints are matched and'
+                f' `plant.settle_time` ({PlantSettings.settle_time:g} s) more. In '
+                'brackets: milliseconds of CPU time the host took from this virtual machine '
+                "during that run (Linux's steal time, both CPUs together; blank where the "
+                'system does not report it).', '')
     section.table(header, rows)
+    if steals:
+        section.add(f'Steal time per run: median {1000 * sorted(steals)[len(steals) // 2]:.0f} '
+                    f'ms, largest {1000 * max(steals):.0f} ms, over {len(steals)} runs of '
+                    f'{seconds:g} s.', '')
     highest = {key: max((rate for rate, f in zip(rates, values) if min(f) >= 0.99),
                         default=0.0) for key, values in fractions.items()}
     section.add('Highest rate with at least 99 % on time in every run: ' + ', '.join(

@@ -15,6 +15,7 @@
 """What every benchmark section shares: results, tables, figures, timing, random systems."""
 
 from dataclasses import dataclass, field
+import os
 from pathlib import Path
 import time
 from typing import Callable, Optional, Sequence
@@ -85,6 +86,22 @@ def pyplot():
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
     return plt
+
+
+def stolen_seconds() -> Optional[float]:
+    """
+    Return the CPU time the hypervisor has taken from this machine so far (all CPUs), or None.
+
+    Linux's ``steal`` column of ``/proc/stat``: time a virtual CPU was ready to run and the
+    host ran something else. The difference over a run says how much of it the machine
+    did not have, which no code in the run can win back.
+    """
+    try:
+        with open('/proc/stat') as stat:
+            fields = stat.readline().split()
+        return int(fields[8]) / os.sysconf('SC_CLK_TCK')
+    except (OSError, IndexError, ValueError):
+        return None
 
 
 def per_call(function: Callable[[], object], repeat: int, rounds: int = 3) -> float:
