@@ -139,8 +139,13 @@ def killed_observer(listener) -> tuple:
         cpu_wait = max(0, cpu_wait_ns(feedback) - cpu_wait) / 1e9
         restarted = time.monotonic()
         processes['observer'] = start('observer', STABLE)
-        assert listener.wait(lambda: any(u != SAFE for _, _, u in listener.since(
-            'u_cmd', restarted + 1.0)), 60.0)
+        if not listener.wait(lambda: any(u != SAFE for _, _, u in listener.since(
+                'u_cmd', restarted + 1.0)), 60.0):
+            seen = {topic: len(listener.since(topic, restarted)) for topic in TOPICS}
+            tails = {name: processes.pop(name).stop()[2][-1500:]
+                     for name in ('observer', 'state_feedback')}
+            raise AssertionError(f'no command from the restarted observer within 60 s; '
+                                 f'received since the restart: {seen}; {tails}')
         assert listener.wait(lambda: converged(listener, restarted, 1e-3), 30.0)
     finally:
         outcomes = stop_all(processes)
