@@ -27,6 +27,7 @@ Lockstep: the plant waits for each command, on simulated time.
 
 import re
 import signal
+import statistics
 import subprocess
 import sys
 import time
@@ -158,8 +159,8 @@ def run(smoke: bool, figures) -> Section:
 
     header = ['rate (Hz)', *(f'{setup}, {executor}' for setup, executor in fractions)]
     rows = [[f'{rate:g}', *(cell(key, i) for key in fractions)] for i, rate in enumerate(rates)]
-    steals = [s for per_key in stolen.values() for per_rate in per_key for s in per_rate
-              if s is not None]
+    every_steal = [s for per_key in stolen.values() for per_rate in per_key for s in per_rate
+                   if s is not None]
     section.add(f'seed 003 (full-order observer and state feedback), {seconds:g} s per run, '
                 f'{runs} run{"s" if runs > 1 else ""} per rate, set-up and executor; the worst '
                 "run's share of the samples (after the first command) that applied the "
@@ -174,10 +175,10 @@ def run(smoke: bool, figures) -> Section:
                 "during that run (Linux's steal time, both CPUs together; blank where the "
                 'system does not report it).', '')
     section.table(header, rows)
-    if steals:
-        section.add(f'Steal time per run: median {1000 * sorted(steals)[len(steals) // 2]:.0f} '
-                    f'ms, largest {1000 * max(steals):.0f} ms, over {len(steals)} runs of '
-                    f'{seconds:g} s.', '')
+    if every_steal:
+        section.add(f'Steal time per run: median {1000 * statistics.median(every_steal):.0f} '
+                    f'ms, largest {1000 * max(every_steal):.0f} ms, over {len(every_steal)} '
+                    f'runs of {seconds:g} s.', '')
     highest = {key: max((rate for rate, f in zip(rates, values) if min(f) >= 0.99),
                         default=0.0) for key, values in fractions.items()}
     section.add('Highest rate with at least 99 % on time in every run: ' + ', '.join(
