@@ -78,6 +78,12 @@ def report_section(report: HtmlReport, result, truth=None) -> None:
                        None if truth is None else truth.values)
 
 
+def print_warnings(result) -> None:
+    """Print what the observer node would have warned of during the replay, on stderr."""
+    for warning in result.warnings:
+        print(f'replay: warning: {warning}', file=sys.stderr)
+
+
 def _truth_or_none(result, topic: str):
     try:
         return result.truth(topic)
@@ -124,6 +130,7 @@ def replay_many(options, bags, system) -> int:
         print(f'{result.bag}: {len(result.outputs.values)} measurements into '
               f'{len(result.stamps_ns)} estimates in {item["elapsed"]:.3f} s; {counters}'
               f'{reference}')
+        print_warnings(result)
         if options.report:
             report_section(report, result, item['truth'])
     if options.report:
@@ -210,6 +217,7 @@ def main(args=None) -> int:
         print(f'replayed {len(result.outputs.values)} measurements into '
               f'{len(result.stamps_ns)} estimates in {elapsed:.3f} s '
               f'({len(result.outputs.values) / max(elapsed, 1e-9):,.0f} samples/s); {counters}')
+        print_warnings(result)
         for reference, error, count in rmse:
             print(f'{reference.state}: RMSE {error:.6g} against {reference.topic} '
                   f'{reference.field} of {reference.joint} ({count} estimates, after '

@@ -1,0 +1,213 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The offline tools on a differential-drive set-up, and what they check before they work.
+
+One ``y`` (the wheel speeds in ``/joint_states``) and a ``geometry_msgs/Twist`` input on
+``/cmd_vel``, the most common robot set-up, recorded the way ``ros2 bag record`` does:
+replayed and tuned without a crash, two sources on one topic both read, streams stamped in
+different clocks warned of, a misspelt joint refused up front with what the bag holds.
+"""
+
+import math
+
+import numpy as np
+import pytest
+from rosbags.rosbag2 import Writer
+import yaml
+
+from bag_support import float64_array, joint_state, serialize, STORAGES, TYPES, TYPESTORE
+from observer_ros.bags.replay import replay_bag
+from observer_ros.bags.storage import BagError
+from observer_ros.tools.replay import main as replay_main
+from observer_ros.tools.tune_kalman import main as tune_main
+
+#: Wall-clock start of the recordings (ns).
+WALL_START_NS = 1_700_000_000 * 10**9
+PERIOD_NS = 10_000_000
+JOINTS = ['wheel_left_joint', 'wheel_right_joint']
+#: Wheel speeds (rad/s) follow the commanded ones with a time constant of 0.1 s; wheels of
+#: radius 0.033 m, 0.16 m apart: w_left = (v - 0.08 w) / 0.033.
+A = [-10.0, 0.0, 0.0, -10.0]
+B = [303.0, -24.2, 303.0, 24.2]
+
+
+def drive_parameters(path, u_type='twist', sources=None, **observer):
+    """Write a differential drive's parameter file: wheel speeds, commanded (v, w)."""
+    section = {
+        'model': {'A': A, 'B': B, 'C': [1.0, 0.0, 0.0, 1.0], 'state_names': ['wl', 'wr'],
+                  'input_names': ['v_cmd', 'w_cmd'], 'output_names': list(JOINTS)},
+        'observer': {'type': 'kalman', 'process_noise': [1.0, 1.0],
+                     'measurement_noise': [0.01, 0.01], 'initial_state': [0.0, 0.0],
+                     **observer},
+        'topics': {'y': {'type': 'joint_state', 'field': 'velocity'},
+                   'u': ({'type': 'twist', 'fields': ['linear.x', 'angular.z']}
+                         if u_type == 'twist' else {'type': 'float64_multi_array'})}}
+    if sources:
+        section['observer']['sources'] = list(sources)
+        section['observer'].pop('measurement_noise')
+        section['sources'] = sources
+    path.write_text(yaml.safe_dump({'/**': {'ros__parameters': section}}))
+    return path
+
+
+def write_drive_bag(path, samples=200, storage='mcap', stamp_start_ns=WALL_START_NS,
+                    u_type='twist', seed=5):
+    """
+    Record ``/joint_states`` (wheel velocities, stamped) and ``/cmd_vel`` (unstamped).
+
+    The joint states are stamped from ``stamp_start_ns`` (0: simulation time) and logged in
+    wall time; each command is logged 1 us before the sample it acts from.
+    """
+    rng = np.random.default_rng(seed)
+    speeds = np.zeros(2)
+    msgtype = ('geometry_msgs/msg/Twist' if u_type == 'twist'
+               else 'std_msgs/msg/Float64MultiArray')
+    with Writer(path, version=9, storage_plugin=STORAGES[storage]) as writer:
+        joints = writer.add_connection('/joint_states', 'sensor_msgs/msg/JointState',
+                                       typestore=TYPESTORE)
+        commands = writer.add_connection('/cmd_vel', msgtype, typestore=TYPESTORE)
+        for index in range(samples):
+            logged = WALL_START_NS + index * PERIOD_NS
+            u = np.array([0.2 + 0.1 * math.sin(index / 10), 0.5 * math.cos(index / 15)])
+            if u_type == 'twist':
+                vector = TYPES['geometry_msgs/msg/Vector3']
+                command = TYPES['geometry_msgs/msg/Twist'](linear=vector(x=u[0], y=0.0, z=0.0),
+                                                           angular=vector(x=0.0, y=0.0, z=u[1]))
+            else:
+                command = float64_array(u)
+            writer.write(commands, logged - 1000, serialize(command))
+            measured = speeds + rng.normal(0.0, 0.1, size=2)
+            writer.write(joints, logged, serialize(joint_state(
+                stamp_start_ns + index * PERIOD_NS, [*JOINTS, 'caster'], [0.0, 0.0, 0.0],
+                [*measured, 0.0])))
+            target = np.array([(u[0] - 0.08 * u[1]) / 0.033, (u[0] + 0.08 * u[1]) / 0.033])
+            speeds = target + (speeds - target) * math.exp(-10.0 * PERIOD_NS / 1e9)
+
+
+@pytest.mark.parametrize('storage', ['mcap', 'sqlite3'])
+def test_a_twist_input_without_sources_replays_as_its_vector_does(tmp_path, storage):
+    write_drive_bag(tmp_path / 'twist', storage=storage)
+    write_drive_bag(tmp_path / 'vector', storage=storage, u_type='float64_multi_array')
+    twist = replay_bag(tmp_path / 'twist', drive_parameters(tmp_path / 'twist.yaml'),
+                       '/joint_states', '/cmd_vel')
+    vector = replay_bag(tmp_path / 'vector', drive_parameters(
+        tmp_path / 'vector.yaml', 'float64_multi_array'), '/joint_states', '/cmd_vel')
+    assert len(twist.stamps_ns) == 200 and twist.counters.get('late_input', 0) == 0
+    assert not twist.warnings
+    np.testing.assert_array_equal(twist.stamps_ns, vector.stamps_ns)
+    np.testing.assert_allclose(twist.estimates, vector.estimates, rtol=0, atol=1e-9)
+
+
+def test_replay_and_tune_kalman_take_a_twist_input(tmp_path, capsys):
+    write_drive_bag(tmp_path / 'bag', samples=1000)
+    params = drive_parameters(tmp_path / 'drive.yaml')
+    assert replay_main([str(tmp_path / 'bag'), str(params), '--y-topic', '/joint_states',
+                        '--u-topic', '/cmd_vel']) == 0
+    assert 'into 1000 estimates' in capsys.readouterr().out
+    assert tune_main([str(tmp_path / 'bag'), str(params), '--y-topic', '/joint_states',
+                      '--u-topic', '/cmd_vel', '--lags', '8', '--iterations', '1',
+                      '-o', str(tmp_path / 'tuned.yaml')]) == 0
+    assert (tmp_path / 'tuned.yaml').exists()
+
+
+def test_two_sources_on_one_topic_are_both_read(tmp_path):
+    write_drive_bag(tmp_path / 'bag', samples=100)
+    sources = {'left': {'topic': '/joint_states', 'type': 'joint_state',
+                        'fields': ['velocity.wheel_left_joint'], 'outputs': ['wheel_left_joint'],
+                        'measurement_noise': [0.01]},
+               'right': {'topic': '/joint_states', 'type': 'joint_state',
+                         'fields': ['velocity.wheel_right_joint'],
+                         'outputs': ['wheel_right_joint'], 'measurement_noise': [0.01]}}
+    params = drive_parameters(tmp_path / 'two.yaml', sources=sources, time_varying=True)
+    result = replay_bag(tmp_path / 'bag', params, u_topic='/cmd_vel')
+    # Each message is read by both: 200 measurements, one estimate per stamp at least.
+    assert result.counters['measurements'] == 200
+    assert len(result.outputs.stamps_ns) == 200
+    both = drive_parameters(tmp_path / 'one.yaml', sources={'wheels': {
+        'topic': '/joint_states', 'type': 'joint_state',
+        'fields': ['velocity.wheel_left_joint', 'velocity.wheel_right_joint'],
+        'outputs': list(JOINTS), 'measurement_noise': [0.01, 0.01]}}, time_varying=True)
+    together = replay_bag(tmp_path / 'bag', both, u_topic='/cmd_vel')
+    last = together.stamps_ns[-1]
+    # Two scalar updates at one stamp equal one update with both (R diagonal).
+    np.testing.assert_allclose(result.estimates[result.stamps_ns == last][-1],
+                               together.estimates[-1], rtol=1e-9)
+
+
+@pytest.mark.parametrize('storage', ['mcap', 'sqlite3'])
+def test_sensors_in_simulation_time_with_wall_clock_commands_are_warned_of(tmp_path, storage,
+                                                                           capsys):
+    write_drive_bag(tmp_path / 'bag', storage=storage, stamp_start_ns=5 * 10**8)
+    params = drive_parameters(tmp_path / 'drive.yaml')
+    result = replay_bag(tmp_path / 'bag', params, '/joint_states', '/cmd_vel')
+    assert result.counters['late_input'] > 190
+    (warning,) = result.warnings
+    assert 'different time bases' in warning and '--use-log-time' in warning
+    assert 'stamp /cmd_vel in the clock of the measurements' in warning
+    assert replay_main([str(tmp_path / 'bag'), str(params), '--y-topic', '/joint_states',
+                        '--u-topic', '/cmd_vel']) == 0
+    assert 'replay: warning:' in capsys.readouterr().err
+    fixed = replay_bag(tmp_path / 'bag', params, '/joint_states', '/cmd_vel',
+                       use_log_time=True)
+    assert not fixed.warnings and fixed.counters.get('late_input', 0) == 0
+
+
+@pytest.mark.parametrize('storage', ['mcap', 'sqlite3'])
+def test_a_misspelt_joint_of_a_source_is_refused_naming_what_the_bag_holds(tmp_path, storage,
+                                                                           capsys):
+    write_drive_bag(tmp_path / 'bag', samples=50, storage=storage)
+    sources = {'wheels': {'topic': '/joint_states', 'type': 'joint_state',
+                          'fields': ['velocity.wheel_left', 'velocity.wheel_right_joint'],
+                          'outputs': list(JOINTS), 'measurement_noise': [0.01, 0.01]}}
+    params = drive_parameters(tmp_path / 'bad.yaml', sources=sources)
+    with pytest.raises(BagError, match=r'sources\.wheels\.fields: .*/joint_states.*'
+                       r"'wheel_left_joint', 'wheel_right_joint', 'caster'"):
+        replay_bag(tmp_path / 'bag', params, u_topic='/cmd_vel')
+    csv = tmp_path / 'out.csv'
+    assert replay_main([str(tmp_path / 'bag'), str(params), '--u-topic', '/cmd_vel',
+                        '--csv', str(csv)]) == 2
+    assert 'sources.wheels.fields' in capsys.readouterr().err and not csv.exists()
+
+
+def test_a_misspelt_joint_of_y_is_refused_naming_the_parameters(tmp_path):
+    write_drive_bag(tmp_path / 'bag', samples=50)
+    params = drive_parameters(tmp_path / 'drive.yaml')
+    document = yaml.safe_load(params.read_text())
+    document['/**']['ros__parameters']['model']['output_names'] = ['wheel_left', 'wheel_right']
+    params.write_text(yaml.safe_dump(document))
+    with pytest.raises(BagError, match=r'topics\.y\.field .velocity. of the joints '
+                       r'model\.output_names: none of the first 20 messages of /joint_states'):
+        replay_bag(tmp_path / 'bag', params, '/joint_states', '/cmd_vel')
+
+
+def test_a_short_command_array_is_refused_naming_its_fields(tmp_path):
+    write_drive_bag(tmp_path / 'bag', samples=50, u_type='float64_multi_array')
+    params = drive_parameters(tmp_path / 'drive.yaml', 'float64_multi_array')
+    document = yaml.safe_load(params.read_text())
+    document['/**']['ros__parameters']['topics']['u'] = {
+        'type': 'float64_multi_array', 'fields': ['data[0]', 'data[2]']}
+    params.write_text(yaml.safe_dump(document))
+    with pytest.raises(BagError, match=r'topics\.u\.fields: .*data of 2 values'):
+        replay_bag(tmp_path / 'bag', params, '/joint_states', '/cmd_vel')
+
+
+def test_tune_kalman_refuses_commands_in_another_clock(tmp_path, capsys):
+    write_drive_bag(tmp_path / 'bag', samples=100, stamp_start_ns=5 * 10**8)
+    params = drive_parameters(tmp_path / 'drive.yaml')
+    assert tune_main([str(tmp_path / 'bag'), str(params), '--y-topic', '/joint_states',
+                      '--u-topic', '/cmd_vel']) == 2
+    error = capsys.readouterr().err
+    assert 'different time bases' in error and 'tuning needs the inputs' in error
