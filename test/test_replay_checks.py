@@ -211,3 +211,25 @@ def test_tune_kalman_refuses_commands_in_another_clock(tmp_path, capsys):
                       '--u-topic', '/cmd_vel']) == 2
     error = capsys.readouterr().err
     assert 'different time bases' in error and 'tuning needs the inputs' in error
+
+
+WHEELS = {'wheels': {'topic': '/joint_states', 'type': 'joint_state',
+                     'fields': ['velocity.wheel_left_joint', 'velocity.wheel_right_joint'],
+                     'outputs': list(JOINTS), 'measurement_noise': [0.01, 0.01]}}
+
+
+@pytest.mark.parametrize('options, needed', [
+    (['--y-topic', '/joint_states'], 'observer.sources'),
+    (['--settle', '1.0'], '--reference'),
+    (['--truth', '/ground_truth'], '--report'),
+    (['--storage', 'sqlite3', '--csv', 'x.csv'], '--output')])
+def test_options_the_configuration_makes_meaningless_are_refused(tmp_path, capsys, options,
+                                                                 needed):
+    write_drive_bag(tmp_path / 'bag', samples=20)
+    params = drive_parameters(tmp_path / 'drive.yaml', sources=WHEELS)
+    options = [str(tmp_path / value) if value == 'x.csv' else value for value in options]
+    assert replay_main([str(tmp_path / 'bag'), str(params), '--u-topic', '/cmd_vel',
+                        *options]) == 2
+    error = capsys.readouterr().err
+    assert f'{options[0]}: ' in error and needed in error, error
+    assert not (tmp_path / 'x.csv').exists()

@@ -78,6 +78,38 @@ def report_section(report: HtmlReport, result, truth=None) -> None:
                        None if truth is None else truth.values)
 
 
+#: Options that mean something only beside another: ``(option, attribute, needed, needed's
+#: attribute)``.
+DEPENDENT_OPTIONS = (('--settle', 'settle', '--reference', 'reference'),
+                     ('--truth', 'truth', '--report', 'report'),
+                     ('--storage', 'storage', '--output', 'output'))
+
+
+def refuse_meaningless_options(options, system) -> None:
+    """
+    Refuse an option that the configuration (or the other options) makes meaningless.
+
+    Raises
+    ------
+    ConfigError
+        Naming the option and why it would be ignored.
+
+    """
+    if options.y_topic is not None and system.observer.sources is not None:
+        topics = ', '.join(f'{settings.name}: {settings.topic}'
+                           for settings in system.observer.sources.settings)
+        raise ConfigError('--y-topic', f'the measurements are read from the topics of '
+                          f'observer.sources ({topics}; sources.<name>.topic): expected no '
+                          f'--y-topic')
+    if system.model.n_inputs == 0 and options.u_topic is not None:
+        raise ConfigError('--u-topic', 'the model has no inputs (model.B is empty): '
+                          'expected no input topic')
+    for option, attribute, needed, needed_attribute in DEPENDENT_OPTIONS:
+        if getattr(options, attribute) is not None and not getattr(options, needed_attribute):
+            raise ConfigError(option, f'it applies to {needed} only: expected {needed} with '
+                              f'it, or no {option}')
+
+
 def print_warnings(result) -> None:
     """Print what the observer node would have warned of during the replay, on stderr."""
     for warning in result.warnings:
@@ -116,7 +148,7 @@ def replay_many(options, bags, system) -> int:
             raise ConfigError(option, f'{len(bags)} bags given: {option} takes one bag')
     if options.report:
         check_outputs(None, None, options.report)
-    tasks = [(bag, options.params, options.y_topic, options.u_topic or 'u',
+    tasks = [(bag, options.params, options.y_topic or 'y', options.u_topic or 'u',
               options.use_log_time, options.truth if options.report else None) for bag in bags]
     with task_mapper(options.workers, options.dask) as mapper:
         done = mapper(_replay_task, tasks, 'replay')
@@ -147,16 +179,20 @@ def main(args=None) -> int:
                         help='rosbag2 bag directory (MCAP or sqlite3), a storage file, or a '
                         'folder of bags (several: one line and one report section each)')
     parser.add_argument('params', help='parameter file (/**: ros__parameters:)')
-    parser.add_argument('--y-topic', default='y', help='measurement topic in the bag')
+    parser.add_argument('--y-topic', default=None,
+                        help='measurement topic in the bag (default y; none with '
+                        'observer.sources, whose topics are configured)')
     parser.add_argument('--u-topic', default=None,
                         help='input topic in the bag (default u; none for a model without '
                         'inputs)')
     parser.add_argument('--output', metavar='BAG', help='write x_hat and innovation to a new bag')
-    parser.add_argument('--storage', choices=STORAGES, default='mcap')
+    parser.add_argument('--storage', choices=STORAGES, default=None,
+                        help='storage of --output (default mcap)')
     parser.add_argument('--csv', metavar='FILE', help='write stamps, x_hat and innovation')
     parser.add_argument('--report', metavar='DIR',
                         help='error table and DIR/replay.png against the true state')
-    parser.add_argument('--truth', default='x_true', help='true-state topic for --report')
+    parser.add_argument('--truth', default=None,
+                        help='true-state topic for --report (default x_true)')
     parser.add_argument('--reference', action='append', default=[],
                         metavar='STATE=TOPIC:FIELD:JOINT',
                         help='print the RMSE of STATE against a JointState field of one joint, '
@@ -171,6 +207,8 @@ def main(args=None) -> int:
     options = parser.parse_args(args)
     try:
         system = load_system(options.params)
+        refuse_meaningless_options(options, system)
+        options.truth = options.truth or 'x_true'
         bags = expand_bags(options.bags)
         if len(bags) > 1:
             return replay_many(options, bags, system)
@@ -181,13 +219,10 @@ def main(args=None) -> int:
     try:
         # Everything is checked (parameters, outputs, topics, truth) before anything is written.
         references = [StateReference.parse(text) for text in options.reference]
-        if system.model.n_inputs == 0 and options.u_topic is not None:
-            raise ConfigError('--u-topic', 'the model has no inputs (model.B is empty): '
-                              'expected no input topic')
         check_outputs(options.output, options.csv, options.report)
         started = time.perf_counter()
-        result = replay_bag(options.bag, system, options.y_topic, options.u_topic or 'u',
-                            options.use_log_time)
+        result = replay_bag(options.bag, system, options.y_topic or 'y',
+                            options.u_topic or 'u', options.use_log_time)
         settle = (options.settle if options.settle is not None else
                   settling_time(system.observer.design.achieved_poles, system.model.dt))
         rmse = [(reference, *reference_rmse(result, reference, settle))
@@ -211,7 +246,7 @@ def main(args=None) -> int:
     plot = options.report and Path(options.report) / f'{REPORT_NAME}.png'
     written = [] if plot is None or plot.exists() else [plot]
     try:
-        write_replay(result, options.output, options.csv, options.storage)
+        write_replay(result, options.output, options.csv, options.storage or 'mcap')
         written += [Path(p) for p in (options.output, options.csv) if p is not None]
         counters = ', '.join(f'{key} {value}' for key, value in sorted(result.counters.items()))
         print(f'replayed {len(result.outputs.values)} measurements into '
