@@ -233,3 +233,38 @@ def test_options_the_configuration_makes_meaningless_are_refused(tmp_path, capsy
     error = capsys.readouterr().err
     assert f'{options[0]}: ' in error and needed in error, error
     assert not (tmp_path / 'x.csv').exists()
+
+
+def test_tune_kalman_writes_into_folders_it_makes(tmp_path, capsys):
+    write_drive_bag(tmp_path / 'bag', samples=1000)
+    params = drive_parameters(tmp_path / 'drive.yaml')
+    tuned, report = tmp_path / 'new' / 'deeper' / 'tuned.yaml', tmp_path / 'reports' / 'tk'
+    assert tune_main([str(tmp_path / 'bag'), str(params), '--y-topic', '/joint_states',
+                      '--u-topic', '/cmd_vel', '--lags', '8', '--iterations', '1',
+                      '-o', str(tuned), '--report', str(report)]) == 0, capsys.readouterr().err
+    assert tuned.exists() and (report / 'tune_kalman.html').exists()
+
+
+def test_identify_writes_into_folders_it_makes(tmp_path, capsys):
+    from observer_ros.tools.identify import main as identify_main
+    write_drive_bag(tmp_path / 'bag', samples=600, u_type='float64_multi_array')
+    model, report = tmp_path / 'new' / 'model.yaml', tmp_path / 'reports' / 'identify'
+    assert identify_main([str(tmp_path / 'bag'), '--order', '2', '--inputs',
+                          '/cmd_vel', '--outputs',
+                          '/joint_states:velocity:wheel_left_joint,wheel_right_joint',
+                          '-o', str(model),
+                          '--report', str(report)]) == 0, capsys.readouterr().err
+    assert model.exists() and (report / 'identify.html').exists()
+
+
+@pytest.mark.parametrize('tool', ['tune_kalman', 'identify'])
+def test_an_output_under_a_file_is_refused_before_the_bag_is_read(tmp_path, capsys, tool):
+    from observer_ros.tools.identify import main as identify_main
+    (tmp_path / 'file').write_text('')
+    missing_bag = str(tmp_path / 'no_bag')  # never read: the output is refused first
+    arguments = ([missing_bag, str(drive_parameters(tmp_path / 'drive.yaml'))]
+                 if tool == 'tune_kalman' else [missing_bag, '--order', '2'])
+    main = tune_main if tool == 'tune_kalman' else identify_main
+    assert main([*arguments, '-o', str(tmp_path / 'file' / 'out.yaml')]) == 2
+    error = capsys.readouterr().err
+    assert '--output: ' in error and str(tmp_path / 'file') in error, error
