@@ -268,3 +268,59 @@ def test_an_output_under_a_file_is_refused_before_the_bag_is_read(tmp_path, caps
     assert main([*arguments, '-o', str(tmp_path / 'file' / 'out.yaml')]) == 2
     error = capsys.readouterr().err
     assert '--output: ' in error and str(tmp_path / 'file') in error, error
+
+
+def _csv(path):
+    """Return the header and the rows of a CSV as lists of strings."""
+    lines = path.read_text().splitlines()
+    return lines[0].split(','), [line.split(',') for line in lines[1:]]
+
+
+def test_the_csv_says_what_made_each_row_and_the_in_order_file_has_one_per_stamp(tmp_path):
+    from test_sources_nodes import CONFIG, write_wheeled_bag
+    write_wheeled_bag(tmp_path / 'base', samples=40)
+    csv, in_order = tmp_path / 'rows.csv', tmp_path / 'out' / 'in_order.csv'
+    assert replay_main([str(tmp_path / 'base'), str(CONFIG), '--u-topic', '/cmd_vel',
+                        '--csv', str(csv), '--in-order', str(in_order)]) == 0
+    header, rows = _csv(csv)
+    assert header[:7] == ['stamp_ns', 'event', 'x', 'yaw', 'v', 'w', 'innovation_v_left']
+    assert header[-4:] == ['variance_x', 'variance_yaw', 'variance_v', 'variance_w']
+    events = [row[1] for row in rows]
+    # 40 wheel samples, 20 IMU samples joining them, 7 late poses re-running the newest.
+    assert events.count('wheels') == 40 and events.count('imu') == 20
+    assert events.count('rerun') == 7 and len(rows) == 67
+    stamps = [int(row[0]) for row in rows]
+    assert all(stamps[i] > max(stamps[:i]) for i, event in enumerate(events)
+               if event == 'wheels' and i)
+    header, ordered = _csv(in_order)
+    assert header[:3] == ['stamp_ns', 'sources', 'x'] and header[-1] == 'variance_w'
+    ordered_stamps = [int(row[0]) for row in ordered]
+    assert ordered_stamps == sorted(set(stamps)) and len(ordered) == 40
+    assert ordered[0][1] == 'wheels+imu+mocap' and ordered[1][1] == 'wheels'
+    # The newest published row and the last in-order one are the same estimate.
+    assert ordered[-1][2:] == rows[-1][2:6] + rows[-1][-4:]
+
+
+def test_the_full_covariance_and_a_meaningless_covariance_option(tmp_path, capsys):
+    write_drive_bag(tmp_path / 'bag', samples=30, u_type='float64_multi_array')
+    params = drive_parameters(tmp_path / 'drive.yaml', 'float64_multi_array')
+    csv = tmp_path / 'rows.csv'
+    base = [str(tmp_path / 'bag'), str(params), '--y-topic', '/joint_states', '--u-topic',
+            '/cmd_vel']
+    assert replay_main([*base, '--csv', str(csv), '--covariance', 'full']) == 0
+    header, rows = _csv(csv)
+    assert header[-4:] == ['covariance_wl_wl', 'covariance_wl_wr', 'covariance_wr_wl',
+                           'covariance_wr_wr']
+    result = replay_bag(tmp_path / 'bag', params, '/joint_states', '/cmd_vel')
+    assert [float(v) for v in rows[-1][-4:]] == result.covariances[-1].ravel().tolist()
+    assert {row[1] for row in rows} == {'y'}
+    assert replay_main([*base, '--covariance', 'full']) == 2
+    assert '--covariance: it applies to --csv and --in-order' in capsys.readouterr().err
+    observer = drive_parameters(tmp_path / 'poles.yaml', 'float64_multi_array')
+    document = yaml.safe_load(observer.read_text())
+    document['/**']['ros__parameters']['observer'] = {'poles': [-20.0, -25.0]}
+    observer.write_text(yaml.safe_dump(document))
+    assert replay_main([str(tmp_path / 'bag'), str(observer), '--y-topic', '/joint_states',
+                        '--u-topic', '/cmd_vel', '--csv', str(csv), '--covariance',
+                        'diagonal']) == 2
+    assert 'has no covariance to write' in capsys.readouterr().err

@@ -53,6 +53,10 @@ TIME_BASE_SAMPLES = 4096
 LOG_TIME_ADVICE = ('replay with log times for both (replay --use-log-time, '
                    'replay_bag(..., use_log_time=True))')
 
+#: What made each published estimate (``ReplayResult.events``): a measurement source's
+#: name (``y`` without sources) for its own estimate, and these.
+RERUN, INPUT_EVENT, FLUSHED = 'rerun', 'input', 'flush'
+
 #: Event kinds of the stream that a replay reports as warnings (the node warns of them too).
 WARNED_EVENTS = ('time_base',)
 
@@ -166,6 +170,31 @@ def stream_warnings(stream, bag: str = '', y_topic: str = 'y', u_topic: str = 'u
     return tuple(warnings)
 
 
+@dataclass(frozen=True)
+class InOrderEstimates:
+    """
+    The estimate at each stamp once every late sample is in, in stamp order.
+
+    What the node's history holds when no later sample can change it: the estimates the
+    stream computed again after a late measurement but published only for the newest stamp
+    (see ``doc/measurement_sources.md``).
+
+    Attributes
+    ----------
+    stamps_ns : numpy.ndarray of int64, shape (k,)
+    estimates : numpy.ndarray, shape (k, n)
+    covariances : numpy.ndarray or None, shape (k, n, n)
+    events : numpy.ndarray of str, shape (k,)
+        The sources whose samples made each update, joined by ``+``.
+
+    """
+
+    stamps_ns: np.ndarray
+    estimates: np.ndarray
+    covariances: Optional[np.ndarray]
+    events: np.ndarray
+
+
 @dataclass
 class ReplayResult:
     """
@@ -190,6 +219,13 @@ class ReplayResult:
     warnings : tuple of str
         What the observer node would warn of (:func:`stream_warnings`): inputs stamped in
         another time base than the measurements, with what to do.
+    events : numpy.ndarray of str or None, shape (k,)
+        What made each estimate: the name of the measurement source whose sample it is the
+        estimate of (``y`` without sources), ``rerun`` (the newest estimate again, corrected
+        after a late sample), ``input`` (released by the input it waited for), ``flush``
+        (released at the end of the bag with the inputs at hand).
+    in_order : InOrderEstimates or None
+        The estimates in stamp order after every late sample.
 
     """
 
@@ -206,6 +242,8 @@ class ReplayResult:
     innovation_covariances: Optional[np.ndarray] = None
     nis: Optional[np.ndarray] = None
     warnings: tuple = ()
+    events: Optional[np.ndarray] = None
+    in_order: Optional[InOrderEstimates] = None
 
     def truth(self, topic: str = 'x_true') -> TopicData:
         """Read the true state (or another reference topic) from the bag, in the replay's time."""
@@ -498,11 +536,14 @@ def _replay_sources(bag, system: Configuration, y_topic: str, u_topic: str,
     stream = system.observer.make_stream()
     if use_log_time:
         stream.input_stamped = False
-    samples = stream.replay_events(events)
+    stream.engine.retired = []
+    causes: list = []
+    samples = stream.replay_events(events, causes)
     model = system.model
     arrays = replay_arrays([sample._replace(innovation=_full_innovation(sample, model),
                                             innovation_covariance=None, nis=None)
                             for sample in samples], model.n_states, model.n_outputs)
+    labels = _cause_events(samples, causes, stream.engine.sources)
     measured = [event for event in events if event.source != INPUT]
     inputs = [event for event in events if event.source == INPUT]
     counters = dict(stream.counters)
@@ -512,7 +553,33 @@ def _replay_sources(bag, system: Configuration, y_topic: str, u_topic: str,
                         arrays.innovations, _topic_data(measured, 0), _topic_data(
                             inputs, model.n_inputs), counters, use_log_time,
                         arrays.covariances, None, None,
-                        stream_warnings(stream, str(bag), y_topic, u_topic))
+                        stream_warnings(stream, str(bag), y_topic, u_topic), labels,
+                        _in_order(stream, arrays, labels))
+
+
+def _in_order(stream, published, events) -> 'InOrderEstimates':
+    """
+    Return the in-order estimates of a replayed stream, after every late sample.
+
+    With a history: the entries that left it (final) and those still in it, oldest first,
+    each named by the sources of its update (``wheels+imu``). Without one nothing is re-run
+    and the published estimates are the in-order ones.
+    """
+    engine = stream.engine
+    if not engine.keeps_history:
+        return InOrderEstimates(published.stamps_ns, published.estimates,
+                                published.covariances, np.asarray(events, dtype=str))
+    entries = [entry for entry in (engine.retired or []) + list(engine.entries)
+               if entry.result is not None]
+    n_states = stream.estimator.n_states
+    stamps = np.array([entry.stamp_ns for entry in entries], dtype=np.int64)
+    estimates = np.array([entry.result.estimate for entry in entries],
+                         dtype=float).reshape(-1, n_states)
+    covariances = None
+    if entries and all(entry.result.covariance is not None for entry in entries):
+        covariances = np.array([entry.result.covariance for entry in entries])
+    names = np.array(['+'.join(entry.parts) for entry in entries], dtype=str)
+    return InOrderEstimates(stamps, estimates, covariances, names)
 
 
 def _full_innovation(sample, model) -> np.ndarray:
@@ -588,9 +655,41 @@ def replay_bag(bag: Union[str, os.PathLike],
                          absolute_topic(u_topic))
     stream = setup.make_stream()
     stream.input_stamped = input_stamped
+    stream.engine.retired = []
     result = stream.replay(inputs.stamps_ns, inputs.values, outputs.stamps_ns, outputs.values,
                            inputs.log_times_ns, outputs.log_times_ns)
+    labels = _stamp_events(result.stamps_ns)
     return ReplayResult(system, str(bag), result.stamps_ns, result.estimates,
                         result.innovations, outputs, inputs, dict(stream.counters),
                         use_log_time, result.covariances, result.innovation_covariances,
-                        result.nis, stream_warnings(stream, str(bag), y_topic, u_topic))
+                        result.nis, stream_warnings(stream, str(bag), y_topic, u_topic),
+                        labels, _in_order(stream, result, labels))
+
+
+def _cause_events(samples: list, causes: list, sources: dict) -> np.ndarray:
+    """
+    Name what made each estimate of :meth:`EventStream.replay_events`.
+
+    The source of the measurement it is the estimate of (at the measurement's stamp, less
+    the source's latency), ``rerun`` for the newest estimate corrected after a late sample,
+    ``input`` for estimates an input released, ``flush`` for those of the final flush.
+    """
+    labels = []
+    for sample, event in zip(samples, causes):
+        if event is None:
+            labels.append(FLUSHED)
+        elif event.source == INPUT:
+            labels.append(INPUT_EVENT)
+        elif sample.stamp_ns == event.stamp_ns - sources[event.source].latency_ns:
+            labels.append(event.source)
+        else:
+            labels.append(RERUN)
+    return np.array(labels, dtype=str)
+
+
+def _stamp_events(stamps_ns: np.ndarray) -> np.ndarray:
+    """Name the estimates of one ``y`` stream: ``y``, or ``rerun`` at a stamp given before."""
+    _, first = np.unique(stamps_ns, return_index=True)
+    labels = np.full(len(stamps_ns), RERUN, dtype=object)
+    labels[first] = MEASUREMENT
+    return labels.astype(str)
