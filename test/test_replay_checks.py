@@ -204,13 +204,15 @@ def test_a_short_command_array_is_refused_naming_its_fields(tmp_path):
         replay_bag(tmp_path / 'bag', params, '/joint_states', '/cmd_vel')
 
 
-def test_tune_kalman_refuses_commands_in_another_clock(tmp_path, capsys):
-    write_drive_bag(tmp_path / 'bag', samples=100, stamp_start_ns=5 * 10**8)
+def test_tune_kalman_refuses_commands_in_another_clock_or_takes_log_times(tmp_path, capsys):
+    write_drive_bag(tmp_path / 'bag', samples=1000, stamp_start_ns=5 * 10**8)
     params = drive_parameters(tmp_path / 'drive.yaml')
-    assert tune_main([str(tmp_path / 'bag'), str(params), '--y-topic', '/joint_states',
-                      '--u-topic', '/cmd_vel']) == 2
+    arguments = [str(tmp_path / 'bag'), str(params), '--y-topic', '/joint_states',
+                 '--u-topic', '/cmd_vel', '--lags', '8', '--iterations', '1']
+    assert tune_main(arguments) == 2
     error = capsys.readouterr().err
-    assert 'different time bases' in error and 'tuning needs the inputs' in error
+    assert 'different time bases' in error and 'tune_kalman --use-log-time' in error
+    assert tune_main([*arguments, '--use-log-time']) == 0, capsys.readouterr().err
 
 
 WHEELS = {'wheels': {'topic': '/joint_states', 'type': 'joint_state',
