@@ -109,6 +109,10 @@ def test_a_twist_input_without_sources_replays_as_its_vector_does(tmp_path, stor
     assert not twist.warnings
     np.testing.assert_array_equal(twist.stamps_ns, vector.stamps_ns)
     np.testing.assert_allclose(twist.estimates, vector.estimates, rtol=0, atol=1e-9)
+    # The first estimate of the steady-state filter has no covariance yet (NaN), the others
+    # the batch replay's.
+    assert np.isnan(twist.covariances[0]).all()
+    np.testing.assert_allclose(twist.covariances[1:], vector.covariances[1:], rtol=1e-12)
 
 
 def test_replay_and_tune_kalman_take_a_twist_input(tmp_path, capsys):

@@ -27,6 +27,7 @@ from your own tests::
 Writing the results to a bag or a CSV file is :mod:`observer_ros.bags.replay_outputs`.
 """
 
+import dataclasses
 from dataclasses import dataclass, field
 import os
 from typing import Optional, Union
@@ -544,6 +545,7 @@ def _replay_sources(bag, system: Configuration, y_topic: str, u_topic: str,
                                             innovation_covariance=None, nis=None)
                             for sample in samples], model.n_states, model.n_outputs)
     labels = _cause_events(samples, causes, stream.engine.sources)
+    arrays = dataclasses.replace(arrays, covariances=_covariances(samples, model.n_states))
     measured = [event for event in events if event.source != INPUT]
     inputs = [event for event in events if event.source == INPUT]
     counters = dict(stream.counters)
@@ -555,6 +557,20 @@ def _replay_sources(bag, system: Configuration, y_topic: str, u_topic: str,
                         arrays.covariances, None, None,
                         stream_warnings(stream, str(bag), y_topic, u_topic), labels,
                         _in_order(stream, arrays, labels))
+
+
+def _covariances(samples: list, n_states: int) -> Optional[np.ndarray]:
+    """
+    Return ``P`` of each sample, ``(k, n, n)``: NaN where a sample has none, None if none has.
+
+    The first estimate of a steady-state filter has no covariance yet (the node publishes
+    none for it); the rest still go to the CSV.
+    """
+    if not any(sample.covariance is not None for sample in samples):
+        return None
+    missing = np.full((n_states, n_states), np.nan)
+    return np.array([missing if sample.covariance is None else sample.covariance
+                     for sample in samples], dtype=float)
 
 
 def _in_order(stream, published, events) -> 'InOrderEstimates':
@@ -575,9 +591,7 @@ def _in_order(stream, published, events) -> 'InOrderEstimates':
     stamps = np.array([entry.stamp_ns for entry in entries], dtype=np.int64)
     estimates = np.array([entry.result.estimate for entry in entries],
                          dtype=float).reshape(-1, n_states)
-    covariances = None
-    if entries and all(entry.result.covariance is not None for entry in entries):
-        covariances = np.array([entry.result.covariance for entry in entries])
+    covariances = _covariances([entry.result for entry in entries], n_states)
     names = np.array(['+'.join(entry.parts) for entry in entries], dtype=str)
     return InOrderEstimates(stamps, estimates, covariances, names)
 
