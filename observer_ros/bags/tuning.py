@@ -119,19 +119,23 @@ def _finite(bag: str, role: str, values: np.ndarray, stamps: np.ndarray) -> None
 
 
 def bag_innovations(bag: str, parameters: dict, y_topic: str = 'y', u_topic: str = 'u',
-                    truth_topic: Optional[str] = None) -> BagRun:
+                    truth_topic: Optional[str] = None, use_log_time: bool = False) -> BagRun:
     """
     Replay one bag with the filter of ``parameters`` (flat); the task of one worker.
 
     Raises
     ------
     BagError
-        The bag cannot give the topics, holds a sample that is not finite, or its sample
-        intervals are not even within :data:`PERIOD_TOLERANCE`.
+        The bag cannot give the topics, holds a sample that is not finite, its inputs are
+        stamped in another time base than its measurements, or its sample intervals are not
+        even within :data:`PERIOD_TOLERANCE`.
 
     """
     system = system_of(parameters)
-    result = replay_bag(bag, system, y_topic, u_topic)
+    result = replay_bag(bag, system, y_topic, u_topic, use_log_time)
+    if result.warnings:  # inputs in another clock: every interval with the wrong input
+        raise BagError(f'{result.warnings[0]}; tuning needs the inputs in the clock of the '
+                       f'measurements (tune_kalman --use-log-time)')
     _finite(bag, f'topic {y_topic}', result.outputs.values, result.outputs.stamps_ns)
     if len(result.inputs.values):
         _finite(bag, f'topic {u_topic}', result.inputs.values, result.inputs.stamps_ns)
@@ -289,9 +293,11 @@ class TuningRun:
 
 
 def run_bags(mapper: Callable, bags: Sequence[str], setup: KalmanSetup, y_topic: str,
-             u_topic: str, label: str, truth_topic: Optional[str] = None) -> list:
+             u_topic: str, label: str, truth_topic: Optional[str] = None,
+             use_log_time: bool = False) -> list:
     """Replay every bag with ``setup``'s filter through ``mapper``; results in bag order."""
-    tasks = [(bag, setup.parameters, y_topic, u_topic, truth_topic) for bag in bags]
+    tasks = [(bag, setup.parameters, y_topic, u_topic, truth_topic, use_log_time)
+             for bag in bags]
     return list(mapper(_bag_task, tasks, label))
 
 
@@ -302,7 +308,8 @@ def _bag_task(task: tuple) -> BagRun:
 def tune_noises(bags: Sequence[str], setup: KalmanSetup, structure: NoiseStructure,
                 mapper: Callable, lags: Optional[int] = None, burn_in: Optional[int] = None,
                 iterations: int = ITERATIONS, y_topic: str = 'y', u_topic: str = 'u',
-                weighting: str = 'whitened', truth_topic: Optional[str] = None) -> TuningRun:
+                weighting: str = 'whitened', truth_topic: Optional[str] = None,
+                use_log_time: bool = False) -> TuningRun:
     """
     Estimate ``Q`` and ``R`` from the bags; see the module notes.
 
@@ -321,6 +328,9 @@ def tune_noises(bags: Sequence[str], setup: KalmanSetup, structure: NoiseStructu
         ALS passes, each followed by a run of the filter it gives (at least 1).
     truth_topic : str, optional
         Read this reference (``x_true``) with the first and the last run, for the report.
+    use_log_time : bool
+        Stamp every topic with its log times (see
+        :func:`observer_ros.bags.replay.replay_bag`).
 
     Raises
     ------
@@ -335,7 +345,8 @@ def tune_noises(bags: Sequence[str], setup: KalmanSetup, structure: NoiseStructu
         raise ConfigError('lags', f'expected at least 2, got {lags}')
     if burn_in is not None and burn_in < 0:
         raise ConfigError('burn_in', f'expected 0 or more, got {burn_in}')
-    runs = run_bags(mapper, bags, setup, y_topic, u_topic, 'replay', truth_topic)
+    runs = run_bags(mapper, bags, setup, y_topic, u_topic, 'replay', truth_topic,
+                    use_log_time)
     period = common_period(runs, setup)
     outcome = TuningRun(period)
     current = setup
@@ -359,7 +370,7 @@ def tune_noises(bags: Sequence[str], setup: KalmanSetup, structure: NoiseStructu
                                     structure.process == 'diagonal',
                                     structure.measurement == 'diagonal')
         runs = run_bags(mapper, bags, current, y_topic, u_topic, f'tuned filter {iteration + 1}',
-                        truth_topic if iteration == iterations - 1 else None)
+                        truth_topic if iteration == iterations - 1 else None, use_log_time)
     return outcome
 
 

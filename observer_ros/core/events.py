@@ -304,6 +304,9 @@ class EventEngine:
         self.measurement_sources = measured
         self.keeps_history = self.history_ns > 0 or len(measured) > 1
         self.entries: list = []
+        #: None, or a list that collects each entry leaving the history (its estimate final:
+        #: no later sample re-runs it), oldest first: the in-order estimates of a replay.
+        self.retired: Optional[list] = None
         self._base_ns: Optional[int] = None  # the last entry pruned: the first one's previous
         self._floor_ns: Optional[int] = None  # a restart: nothing before it is inserted
         self.per_source = {source.name: Counter() for source in measured}
@@ -532,7 +535,7 @@ class EventEngine:
         if step < 0:  # inputs of the abandoned timeline must not pair with the new one
             self.inputs.drop_after(stamp)
         if self.keeps_history:  # nothing before the restart is re-run
-            self.entries.clear()
+            self._retire(len(self.entries))
             self._base_ns, self._floor_ns = None, stamp
         self.events.append((kind, f'time jumped by {step / 1e9:.3f} s; the estimator '
                             f'restarts from this sample'))
@@ -596,7 +599,7 @@ class EventEngine:
             raise
         entry.result = produced[-1] if produced else None
         if self.consumer.stamp_ns is None:  # the consumer restarted from its initial state
-            self.entries.clear()
+            self._retire(len(self.entries))
             self._base_ns = self._floor_ns = None
         return produced
 
@@ -698,7 +701,13 @@ class EventEngine:
             drop += 1
         if drop:
             self._base_ns = entries[drop - 1].stamp_ns
-            del entries[:drop]
+            self._retire(drop)
+
+    def _retire(self, count: int) -> None:
+        """Forget the oldest ``count`` entries, collected in :attr:`retired` when it is a list."""
+        if self.retired is not None:
+            self.retired.extend(self.entries[:count])
+        del self.entries[:count]
 
     def _oldest_previous(self) -> Optional[int]:
         """Return the earliest stamp whose held input a re-run may need (the pruning point)."""
@@ -708,7 +717,7 @@ class EventEngine:
 
     def clear_history(self) -> None:
         """Forget the history (the consumer starts again: :meth:`EventStream.reset`)."""
-        self.entries.clear()
+        self._retire(len(self.entries))
         self._base_ns = self._floor_ns = None
 
     def history_depth(self) -> tuple:

@@ -545,7 +545,7 @@ class EventStream:
         samples = engine.process_recorded(measured, outputs[good])
         return replay_arrays(samples, estimator.n_states, n_outputs)
 
-    def replay_events(self, events) -> list:
+    def replay_events(self, events, causes: Optional[list] = None) -> list:
         """
         Feed recorded messages in the order given (a bag's), as live, then flush.
 
@@ -557,6 +557,8 @@ class EventStream:
         Parameters
         ----------
         events : iterable of RecordedEvent
+        causes : list, optional
+            Extended with the event that returned each estimate (None: the final flush).
 
         Returns
         -------
@@ -565,13 +567,20 @@ class EventStream:
 
         """
         samples: list = []
-        for source, stamp, values, arrival in events:
+        for event in events:
+            source, stamp, values, arrival = event
             now = int(arrival) or None
             if source == INPUT:
-                samples += self.add_input(stamp, values, now)
+                produced = self.add_input(stamp, values, now)
             else:
-                samples += self.add_measurement(stamp, values, now, int(arrival), source)
-        return samples + self.flush()
+                produced = self.add_measurement(stamp, values, now, int(arrival), source)
+            samples += produced
+            if causes is not None:
+                causes += [event] * len(produced)
+        produced = self.flush()
+        if causes is not None:
+            causes += [None] * len(produced)
+        return samples + produced
 
     def _replay_history(self, input_stamps, inputs, stamps, outputs, input_arrivals,
                         arrivals) -> ReplayArrays:

@@ -19,7 +19,8 @@ import sys
 from typing import Callable
 
 from observer_ros.bags.collection import expand_bags
-from observer_ros.bags.replay_outputs import check_writable_parent
+from observer_ros.bags.replay_outputs import (
+    check_writable_parent, made_directories, remove_outputs)
 from observer_ros.bags.storage import BagError
 from observer_ros.core.errors import ConfigError, DesignError
 
@@ -55,23 +56,42 @@ def run_tool(tool: str, options, compute: Callable[[list], tuple],
     Run a bag tool: check its outputs, compute, write; one error line and status 2 on failure.
 
     ``compute(bags)`` returns ``(result, text)``; ``write_output(result, text)`` writes
-    ``options.output`` (inside the error handling: a refused file is an error, not a crash);
-    ``write_report(result, text)`` writes the report and returns its path.
+    ``options.output``; ``write_report(result, text)`` writes the report and returns its
+    path. The output paths are checked before any bag is read; the folders they need are
+    made after the work (as ``replay`` makes those of its outputs), and an output that then
+    cannot be written is an error naming its option and path that leaves nothing behind.
     """
+    written, made = [], []
     try:
         bags = checked_bags(options)
         result, text = compute(bags)
+        made = made_directories(options.output, options.report and Path(options.report) / tool)
+        for directory in reversed(made):  # shallowest first
+            directory.mkdir(exist_ok=True)
         if options.output:
-            write_output(result, text)
+            _written('--output', options.output, write_output, result, text)
+            written.append(Path(options.output))
+        report = None
+        if options.report:
+            report = _written('--report', options.report, write_report, result, text)
     except (BagError, ConfigError, DesignError, ValueError, OSError) as e:
+        remove_outputs(written, made)
         print(f'{tool}: error: {e}', file=sys.stderr)
         return 2
     print(text)
     if options.output:
         print(f'{output_label}: {options.output}')
-    if options.report:
-        print(f'report: {write_report(result, text)}')
+    if report is not None:
+        print(f'report: {report}')
     return 0
+
+
+def _written(option: str, path, write: Callable, result, text: str):
+    """Call ``write(result, text)``; an OSError becomes a BagError naming the option and path."""
+    try:
+        return write(result, text)
+    except OSError as e:
+        raise BagError(f'{option}: cannot write {path}: {e.strerror or e}') from e
 
 
 __all__ = ['check_file', 'check_report_directory', 'checked_bags', 'run_tool']

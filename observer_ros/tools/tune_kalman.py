@@ -204,6 +204,9 @@ def main(args=None) -> int:
     parser.add_argument('--weighting', choices=WEIGHTINGS, default='whitened')
     parser.add_argument('--y-topic', default='y', help='measurement topic in the bags')
     parser.add_argument('--u-topic', default='u', help='input topic in the bags')
+    parser.add_argument('--use-log-time', action='store_true',
+                        help='stamp y and u with their log times instead of their header '
+                        'stamps (streams stamped in different time bases)')
     add_worker_arguments(parser, 'run')
     options = parser.parse_args(args)
     with single_threaded_blas():
@@ -220,7 +223,8 @@ def _run(options) -> int:
         with task_mapper(options.workers, options.dask) as mapper:
             outcome = tune_noises(bags, setup, structure, mapper, options.lags, options.burn_in,
                                   options.iterations, options.y_topic, options.u_topic,
-                                  options.weighting, 'x_true' if options.report else None)
+                                  options.weighting, 'x_true' if options.report else None,
+                                  options.use_log_time)
         return (outcome, bags), summary(outcome, bags)
 
     def write_output(result, text):
