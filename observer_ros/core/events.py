@@ -321,6 +321,10 @@ class EventEngine:
         #: A model without inputs (m = 0): no measurement waits, none is short of an input.
         self.autonomous = n_inputs == 0
         self.inputs_absent = self.autonomous
+        #: A row also uses the input held at its own stamp (a model with a feedthrough ``D``:
+        #: ``D u`` with the input in effect at the measurement), so a late input re-runs
+        #: the rows from the first stamped at or after it (set by the consumer).
+        self.pairs_at_stamp = False
 
     # --- arrival ---------------------------------------------------------------------------
 
@@ -384,7 +388,8 @@ class EventEngine:
             # Not while a backward jump (a looping bag) is under way; with a history, keep
             # the inputs of its rows.
             self.inputs.prune(self._oldest_previous() if self.keeps_history else previous)
-        if self.keeps_history and previous is not None and stamp_ns < previous:
+        if self.keeps_history and previous is not None and (
+                stamp_ns < previous or self.pairs_at_stamp and stamp_ns == previous):
             return self._rerun_for_input(stamp_ns) + self.process(force=False)
         return self.process(force=False)
 
@@ -671,9 +676,16 @@ class EventEngine:
         A row's input is the one held at its previous stamp, so an input stamped
         ``stamp_ns`` changes the rows whose previous stamp lies between it and the next
         input: they are taken again from the first. Nothing to do in the usual case, an
-        input stamped at or after the newest measurement.
+        input stamped at or after the newest measurement. With :attr:`pairs_at_stamp` (a
+        feedthrough) a row also uses the input held at its own stamp, so the re-run starts
+        at the first row stamped at or after the input, if that input is held there.
         """
         entries = self.entries
+        if self.pairs_at_stamp and entries and stamp_ns <= entries[-1].stamp_ns:
+            index = bisect.bisect_left(entries, stamp_ns, key=lambda entry: entry.stamp_ns)
+            if self.inputs.stamps[self.inputs.index_at(entries[index].stamp_ns)] == stamp_ns:
+                self.counters['input_reruns'] += 1
+                return self._run_again(index, None)
         if not entries or stamp_ns >= entries[-1].stamp_ns:
             return []
         if self._base_ns is not None and self._base_ns >= stamp_ns:
