@@ -363,7 +363,8 @@ def _input_matrices(a, c, records, fit_d: bool = True) -> tuple:
         targets.append(record.outputs.reshape(-1))
     solution = np.linalg.lstsq(np.vstack(rows), np.concatenate(targets), rcond=None)[0]
     b = solution[:n_states * n_inputs].reshape(n_inputs, n_states).T
-    d = solution[n_states * n_inputs:n_states * n_inputs + n_d].reshape(n_outputs, n_inputs)
+    d = (solution[n_states * n_inputs:n_states * n_inputs + n_d].reshape(n_outputs, n_inputs)
+         if fit_d else np.zeros((n_outputs, n_inputs)))
     initial = [solution[width - n_initial + k * n_states:width - n_initial + (k + 1) * n_states]
                for k in range(len(records))]
     return b, d, initial
