@@ -132,9 +132,13 @@ def test_live_event_by_event_equals_the_replay(kind):
         stamps, inputs, stamps, outputs).estimates
     live = EventStream(estimator_for(kind, MODEL), GAP_NS)
     samples = []
-    for t, u, y in zip(stamps.tolist(), inputs, outputs):
-        samples += live.add_input(t, u)  # the plant publishes u before y, as the simulator
-        samples += live.add_measurement(t, y.tolist())
+    for k, (t, u, y) in enumerate(zip(stamps.tolist(), inputs, outputs)):
+        if k % 2:  # the plant publishes u before y; over DDS y may come first: it waits
+            samples += live.add_input(t, u)
+            samples += live.add_measurement(t, y.tolist())
+        else:
+            assert live.add_measurement(t, y.tolist()) == []
+            samples += live.add_input(t, u)
     samples += live.flush()
     np.testing.assert_array_equal(np.array([s.estimate for s in samples]), replayed)
 
@@ -175,8 +179,9 @@ def test_a_late_input_re_runs_the_row_at_its_stamp_with_a_history():
     late = EventStream(estimator_for('full_order', MODEL), GAP_NS, history_ns=GAP_NS // 10)
     for t, u, y in zip(stamps.tolist(), inputs, outputs):
         expected = on_time.add_input(t, u) + on_time.add_measurement(t, y.tolist())
-        # The input stamped with the measurement arrives just after it.
+        # The input stamped with the measurement comes after it stopped waiting (a flush).
         late.add_measurement(t, y.tolist())
+        late.flush()
         corrected = late.add_input(t, u)
     assert late.counters['input_reruns'] > 0
     np.testing.assert_allclose(corrected[-1].estimate, expected[-1].estimate, rtol=0,
@@ -199,3 +204,45 @@ def test_the_simulator_measures_c_x_plus_d_u_with_the_applied_input():
         plant.measure()
     plain = oc.PlantSimulator(WITHOUT_D, initial_state=X0)
     np.testing.assert_array_equal(plain.measure([3.0]), WITHOUT_D.c @ X0)
+
+
+def test_an_input_disturbance_enters_through_d_too():
+    # Augmented: y = C x + D (u + d); the observer of the augmented model finds d.
+    from observer_ros.core.disturbances import augment
+    plant = oc.StateSpaceModel.from_matrices(A, B, C[:1], D[:1])
+    augmented = augment(plant, ['constant'], ['input']).augmented
+    np.testing.assert_array_equal(augmented.c, [[1.0, 0.0, 0.0, 0.5]])
+    np.testing.assert_array_equal(augmented.d, plant.d)
+    simulator = oc.PlantSimulator(augmented, initial_state=[*X0, 0.7])
+    estimator = oc.make_estimator(oc.design_full_order(augmented, poles=[-4, -5, -6, -7]))
+    stream = EventStream(estimator, GAP_NS)
+    rng = np.random.default_rng(2)
+    for k in range(SAMPLES):
+        u = rng.standard_normal(1)
+        stream.add_input(k * PERIOD_NS, u)
+        sample = stream.add_measurement(k * PERIOD_NS, simulator.measure(u).tolist())[-1]
+        simulator.step(u, PERIOD_NS / 1e9)
+    assert abs(sample.estimate[3] - 0.7) < 1e-4  # poles -4 ... -7, 4 s
+
+
+@pytest.mark.parametrize('dt', [0.0, 0.01])
+def test_the_integral_design_places_the_poles_of_the_loop_with_d(dt):
+    # The loop built by hand: u = -K x + K_i z, z' = r - (C x + D u).
+    from observer_ros.core.design.integral import design_integral
+    model = oc.StateSpaceModel.from_matrices(A, B, C[:1], D[:1])
+    poles = [-1.0, -2.0, -3.0, -4.0]
+    if dt:
+        ad, bd = zero_order_hold(model.a, model.b, dt)
+        model = oc.StateSpaceModel.from_matrices(ad, bd, C[:1], D[:1], dt=dt)
+        poles = np.exp(np.array(poles) * dt).tolist()
+    design = design_integral(model, [0], poles=poles)
+    k, k_i, c, d = design.gain, design.integral_gain, model.c, model.d
+    top = np.hstack([model.a - model.b @ k, model.b @ k_i])
+    error = np.hstack([-(c - d @ k), -d @ k_i])  # r - y with u = -K x + K_i z
+    if dt:
+        loop = np.vstack([top, np.hstack([np.zeros((1, 3)), np.eye(1)]) + dt * error])
+    else:
+        loop = np.vstack([top, error])
+    found = np.sort_complex(np.linalg.eigvals(loop))
+    np.testing.assert_allclose(found, np.sort_complex(np.array(poles, dtype=complex)),
+                               atol=1e-9)

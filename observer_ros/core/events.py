@@ -33,7 +33,10 @@ every event it drops:
   pairing rule: the input of the interval ending at measurement ``k`` is the latest one
   stamped at or before measurement ``k-1`` (``InputHistory.index_at``), so a future
   input never leaks into the past; a measurement whose input may still be on its way waits
-  until an input stamped at or after the previous measurement arrives, or a flush.
+  until an input stamped at or after the previous measurement arrives, or a flush. With a
+  feedthrough (:attr:`EventEngine.pairs_at_stamp`) the consumer also needs the input in
+  effect at the measurement's own stamp (the same rule at that stamp), so the measurement
+  waits for an input stamped at or after it.
 
 Several measurement sources and late measurements (the history). Each
 :class:`~observer_ros.core.sources.MeasurementSource` names the outputs it carries; its
@@ -322,8 +325,10 @@ class EventEngine:
         self.autonomous = n_inputs == 0
         self.inputs_absent = self.autonomous
         #: A row also uses the input held at its own stamp (a model with a feedthrough ``D``:
-        #: ``D u`` with the input in effect at the measurement), so a late input re-runs
-        #: the rows from the first stamped at or after it (set by the consumer).
+        #: ``D u`` with the input in effect at the measurement), so a measurement waits for
+        #: an input stamped at or after its own stamp (or a flush), and with a history a
+        #: late input re-runs the rows from the first stamped at or after it (set by the
+        #: consumer).
         self.pairs_at_stamp = False
 
     # --- arrival ---------------------------------------------------------------------------
@@ -413,7 +418,7 @@ class EventEngine:
         if not self.queue:  # the common case: the queue's routine for a queue of one
             previous = self.consumer.stamp_ns
             if (previous is not None and in_sequence(stamp_ns - previous, self.max_gap_ns)
-                    and self.ready(previous)):
+                    and self.ready(stamp_ns if self.pairs_at_stamp else previous)):
                 produced = self.consumer.take(Row(source, stamp_ns, vector,
                                                   self.input_for(previous),
                                                   stamp_ns - previous, int(arrival_ns)))
@@ -486,6 +491,8 @@ class EventEngine:
                 interval = 0
             else:
                 previous = self.consumer.stamp_ns
+                if self.pairs_at_stamp and not (force or self.ready(event.stamp_ns)):
+                    break  # D u: the input in effect at this stamp may still be on its way
                 if previous is not None and in_sequence(event.stamp_ns - previous,
                                                         self.max_gap_ns):
                     u = self._interval_input(previous, force)

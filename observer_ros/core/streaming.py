@@ -42,13 +42,13 @@ make one update with the outputs of both. See :mod:`observer_ros.core.events`.
 A model with a feedthrough ``D`` (:attr:`~observer_ros.core.estimators.Estimator.feedthrough`)
 measures ``y = C x + D u``: the stream takes ``D u`` off each measurement with the input in
 effect at the measurement's stamp, the engine's pairing rule applied at that stamp (the
-latest input stamped at or before it among those received: ``EventEngine.held_input``),
-while the prediction over the interval keeps the input of the interval. A measurement does
-not wait for an input stamped at its own stamp (in a loop that input is computed from the
-estimate); a replay, with every recorded input stored, and the live stream agree when that
-input arrives before the measurement (the plant simulator publishes ``u`` before ``y``), and
-with a history a late one re-runs the rows it changes. The fast paths are off with a
-feedthrough.
+latest input stamped at or before it: ``EventEngine.held_input``), while the prediction
+over the interval keeps the input of the interval. A measurement waits for an input stamped
+at or after its own stamp, as it waits for the input of its interval (a flush takes the
+latest one at hand), so the live stream and a replay give the same estimates; with a
+history a late input re-runs the rows it changes. The input is then the one applied at that
+sample, stamped with it (what the plant simulator publishes on ``u``, before ``y``), not a
+command computed from the estimate. The fast paths are off with a feedthrough.
 
 When the estimator offers :class:`~observer_ros.core.estimators.SteadySteps`, the stream
 takes those fast paths where they apply (a prepared steady one-output step, a batch over a
