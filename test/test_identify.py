@@ -23,6 +23,7 @@ from observer_ros.core.discretize import zero_order_hold
 from observer_ros.tools.design_observer import main as design_observer
 from observer_ros.tools.identify import main
 from observer_ros.tools.replay import main as replay
+from observer_ros.tools.tune_kalman import main as tune_kalman
 from tuning_support import START_NS
 
 #: The plant: poles -1.58 and -0.91 +- 2.34j, sampled at 20 Hz, position measured.
@@ -191,6 +192,13 @@ def test_a_feedthrough_identified_runs_in_design_observer_and_replay(tmp_path, c
     assert abs(d[0] - 0.8) < 0.01 and fit > 95.0 and fit_zero < 50.0
     # The estimates converge: what is left of the innovation is the measurement noise.
     assert rms['fit'] < 1.2 * noise and rms['zero'] > 3 * rms['fit']
+    # tune_kalman takes the file too (it exited 2 before), and finds R = the noise variance.
+    tuned = tmp_path / 'tuned.yaml'
+    assert tune_kalman([str(bag), str(fitted), '-o', str(tuned)]) == 0
+    capsys.readouterr()
+    r = load_parameter_file(str(tuned))['observer.measurement_noise'][0]
+    print(f'tune_kalman: R {r:.4g}, noise variance {noise ** 2:.4g}')
+    assert abs(r / noise ** 2 - 1.0) < 0.05
 
 
 def test_feedthrough_zero_is_the_default_and_fit_finds_noise_on_a_plant_without_one(
