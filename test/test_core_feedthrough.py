@@ -246,3 +246,27 @@ def test_the_integral_design_places_the_poles_of_the_loop_with_d(dt):
     found = np.sort_complex(np.linalg.eigvals(loop))
     np.testing.assert_allclose(found, np.sort_complex(np.array(poles, dtype=complex)),
                                atol=1e-9)
+
+
+def test_a_configured_model_with_d_and_a_disturbance_runs(tmp_path):
+    # The parameter file's path: model.D with model.disturbances, validated, its stream.
+    from observer_ros.config import load_parameter_file, validate_parameters
+    path = tmp_path / 'direct.yaml'
+    path.write_text(
+        '/**:\n  ros__parameters:\n    model:\n'
+        '      A: [0.0, 1.0, 0.0, 0.0, 0.0, 1.0, -6.0, -11.0, -6.0]\n'
+        '      B: [0.0, 0.0, 1.0]\n      C: [1.0, 0.0, 0.0]\n      D: [0.5]\n'
+        "      disturbances: ['constant']\n"
+        "      disturbance_entries: ['input']\n"
+        "    observer:\n      poles: ['-4', '-5', '-6', '-7']\n")
+    system = validate_parameters(load_parameter_file(str(path)), strict=True)
+    np.testing.assert_array_equal(system.model.c, [[1.0, 0.0, 0.0, 0.5]])
+    stream = system.observer.make_stream()
+    np.testing.assert_array_equal(stream.estimator.feedthrough, [[0.5]])
+    simulator = oc.PlantSimulator(system.model, initial_state=[*X0, -0.3])
+    for k in range(SAMPLES):
+        u = np.array([np.sin(0.05 * k)])
+        stream.add_input(k * PERIOD_NS, u)
+        sample = stream.add_measurement(k * PERIOD_NS, simulator.measure(u).tolist())[-1]
+        simulator.step(u, PERIOD_NS / 1e9)
+    assert abs(sample.estimate[3] + 0.3) < 1e-4
