@@ -93,7 +93,8 @@ def design_summary(system: Configuration) -> dict:
     """
     Summarize a validated system as plain JSON types.
 
-    Keys: ``model`` (n, m, p, dt, observability and controllability), ``observer.*``
+    Keys: ``model`` (n, m, p, dt, observability and controllability, ``feedthrough``
+    when ``D`` is not zero), ``observer.*``
     (type, gain rows, requested and achieved poles as ``[re, im]``, method, residual, and
     the type's matrices), ``feedback.*`` when present, ``closed_loop_poles``,
     ``controller_tf`` (``num``/``den`` highest power first, ``den`` monic) and its
