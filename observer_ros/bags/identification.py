@@ -267,9 +267,13 @@ class Identification:
 def identify_bags(bags: Sequence[str], inputs: Sequence[SignalSpec],
                   outputs: Sequence[SignalSpec], order: int, mapper: Callable,
                   holdout: float = HOLDOUT, horizon: Optional[int] = None,
-                  continuous: bool = False, use_log_time: bool = False) -> Identification:
+                  continuous: bool = False, use_log_time: bool = False,
+                  feedthrough: str = 'fit') -> Identification:
     """
     Identify a model of ``order`` from the bags and score it on their held-out parts.
+
+    ``feedthrough`` (``fit`` or ``zero``): ``D`` fitted, or fixed at zero
+    (:func:`~observer_ros.core.tuning.subspace.identify_subspace`).
 
     Raises
     ------
@@ -302,7 +306,7 @@ def identify_bags(bags: Sequence[str], inputs: Sequence[SignalSpec],
             held_out.append((stamps[split:], Record(record.inputs[split:],
                                                     record.outputs[split:])))
     dt = period / 1e9
-    model = identify_subspace(estimation, order, dt, horizon, first.input_names)
+    model = identify_subspace(estimation, order, dt, horizon, first.input_names, feedthrough)
     validation = []
     for stamps, record in held_out:
         if len(stamps) <= 2 * order:
