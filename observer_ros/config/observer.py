@@ -34,8 +34,9 @@ designed once and cached, rounded to ``observer.interval_resolution``
 (:class:`~observer_ros.core.estimators.StepDesign`).
 """
 
+from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Optional
+from typing import Iterator, Optional
 
 import numpy as np
 
@@ -45,7 +46,7 @@ from observer_ros.config.sections import (
 from observer_ros.config.sources import check_history, measurement_sources, SourcesSetup
 from observer_ros.config.values import check_inside, indices
 from observer_ros.core.design.common import ObserverDesign
-from observer_ros.core.errors import ConfigError
+from observer_ros.core.errors import ConfigError, UnobservableError
 from observer_ros.core.estimators import Estimator
 from observer_ros.core.flat_matrices import vector_from_flat
 from observer_ros.core.model import StateSpaceModel
@@ -172,7 +173,8 @@ def observer_design(sections: Sections, augmentation: Augmentation) -> DesignedO
         if kind.vet is not None:
             kind.vet(model, given)
         arguments = {name: given[name] for name in kind.argument_names()}
-        design = kind.design(model, arguments, augmentation.disturbance)
+        with _naming_sources(sources, model):
+            design = kind.design(model, arguments, augmentation.disturbance)
     _check_interval_resolution(section, model)
     initial_state = None
     if section.initial_state:
@@ -182,6 +184,22 @@ def observer_design(sections: Sections, augmentation: Augmentation) -> DesignedO
                      'topics.x_hat.limit')
     return DesignedObserver(kind, arguments, design, initial_state, binding, design_source,
                             sources, history_ns)
+
+
+@contextmanager
+def _naming_sources(sources: Optional[SourcesSetup], model: StateSpaceModel) -> Iterator[None]:
+    """Say which measurement sources carry the outputs that leave a mode unseen."""
+    try:
+        yield
+    except UnobservableError as e:
+        if sources is None:
+            raise
+        carried = ', '.join(
+            f'{source.name!r} (outputs {[model.output_names[k] for k in source.outputs]})'
+            for source in sources.sources)
+        which = (f'source {carried}' if len(sources.sources) == 1
+                 else f'sources {carried} together')
+        raise UnobservableError(f'{which}: {e.reason}') from e
 
 
 def _with_source_noise(given: dict, sources: Optional[SourcesSetup], kind: ObserverType,

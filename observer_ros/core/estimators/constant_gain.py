@@ -30,7 +30,7 @@ from typing import Optional
 
 import numpy as np
 
-from observer_ros.core.analysis import format_modes, pbh_lost_modes
+from observer_ros.core.analysis import observability_problem
 from observer_ros.core.discretize import transition, zero_order_hold
 from observer_ros.core.errors import ConfigError, DesignError, StampError
 from observer_ros.core.estimators.intervals import (
@@ -207,17 +207,19 @@ class StepDesign:
         subset.model = outputs_model(self.model, outputs)
         return subset
 
-    def unseen_modes(self, outputs: tuple, growing_only: bool = False) -> str:
+    def observability_problem(self, outputs: tuple, detectable: bool,
+                              consequence: str) -> Optional[str]:
         """
-        Return the modes of ``A`` that ``outputs`` cannot see, as text (empty: none).
+        Say which modes ``outputs`` alone cannot see (None: none), by the one rule.
 
-        ``growing_only``: only those that do not decay (an undetectable subset).
+        :func:`observer_ros.core.analysis.observability_problem` for these rows of ``C``;
+        ``detectable``: only the modes that do not decay count (a Kalman filter).
         """
         model = self.model
-        lost = pbh_lost_modes(model.a, model.c[list(outputs)])
-        if growing_only:
-            lost = [mode for mode in lost if not decaying(mode, model.is_discrete)]
-        return format_modes(lost) if len(lost) else ''
+        return observability_problem(
+            model.a, model.c[list(outputs)], detectable=detectable,
+            discrete=model.is_discrete, state_names=model.state_names or None,
+            what='(A, C) of these outputs', seen_from='them', consequence=consequence)
 
 
 def outputs_model(model: StateSpaceModel, outputs: tuple) -> StateSpaceModel:
@@ -228,12 +230,6 @@ def outputs_model(model: StateSpaceModel, outputs: tuple) -> StateSpaceModel:
                    d=np.ascontiguousarray(model.d[index]).reshape(rows, model.n_inputs),
                    output_names=tuple(model.output_names[k] for k in index)
                    if model.output_names else ())
-
-
-def decaying(mode: complex, discrete: bool) -> bool:
-    """Whether an eigenvalue decays (inside the unit circle, or in the open left half-plane)."""
-    margin = 1e-9 * max(1.0, abs(mode))
-    return abs(mode) < 1.0 - margin if discrete else mode.real < -margin
 
 
 class PredictOnlyStep(StepDesign):

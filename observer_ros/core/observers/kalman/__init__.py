@@ -131,5 +131,6 @@ TYPE = ObserverType(
      FORM), design=_design, estimator=_estimator, report=_report, vet=_vet,
     capabilities=Capabilities(covariance=True, needs_every_output=False,
                               linear_realization=True, several_sources=True,
+                              needs_observable=False,
                               disturbance_arguments=('disturbance_noise',)),
     priority=200, charged=_charged)

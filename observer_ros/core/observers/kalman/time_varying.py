@@ -43,6 +43,7 @@ from typing import Optional
 
 import numpy as np
 
+from observer_ros.core.analysis import require_seen
 from observer_ros.core.discretize import transition
 from observer_ros.core.errors import ConfigError, StampError
 from observer_ros.core.estimators.intervals import IntervalCache, IntervalDesigns
@@ -91,6 +92,16 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
     interval_resolution_ns : int
         Round intervals to multiples of this before sampling the model (0: exact).
 
+    Raises
+    ------
+    UnobservableError
+        A mode no output sees that does not decay (the one rule,
+        :func:`~observer_ros.core.analysis.require_seen`): its covariance would grow
+        without bound.
+    ConfigError
+        ``D`` not zero, ``process_noise``, ``measurement_noise`` or ``initial_covariance``
+        of the wrong size or not a covariance.
+
     Examples
     --------
     >>> import numpy as np
@@ -110,6 +121,7 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
                  interval_resolution_ns: int = 0) -> None:
         if np.any(model.d != 0.0):
             raise ConfigError('D', 'the runtime estimators need D = 0')
+        require_seen(model, detectable=True)  # the one rule: P would grow without bound
         self.model = model
         self.n_states, self.n_inputs = model.n_states, model.n_inputs
         self.n_outputs = model.n_outputs
