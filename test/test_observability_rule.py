@@ -195,3 +195,18 @@ def test_design_observer_exits_2_naming_the_modes(tmp_path):
     assert result.returncode == 2, result.stdout
     assert ('observer.process_noise: (A, C) is not detectable: the modes 1 cannot be seen '
             "from the outputs ['v_meas'] and do not decay (mode 1: states p;") in result.stderr
+
+
+def test_a_configuration_of_sources_names_the_sources_that_leave_the_mode_unseen():
+    wheels_only = {
+        'model.A': [0.0, 1.0, 0.0, 0.0], 'model.B': [0.0, 1.0], 'model.C': [0.0, 1.0],
+        'model.state_names': ['x', 'v'], 'model.output_names': ['wheel_v'],
+        'observer.type': 'kalman', 'observer.time_varying': True,
+        'observer.process_noise': [0.0, 1.0], 'observer.sources': ['wheels'],
+        'sources.wheels.fields': ['velocity.wheel'], 'sources.wheels.outputs': ['wheel_v'],
+        'sources.wheels.measurement_noise': [1e-2]}
+    with pytest.raises(ConfigError, match=r"^observer.process_noise: source 'wheels' \(outputs "
+                                          r"\['wheel_v'\]\): \(A, C\) is not detectable: the "
+                                          r'modes 0 cannot be seen from the outputs '
+                                          r"\['wheel_v'\] and do not decay \(mode 0: states x;"):
+        validate_parameters(wheels_only)
