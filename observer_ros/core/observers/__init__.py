@@ -86,6 +86,10 @@ class Capabilities:
         their own rates: its estimator offers
         :class:`~observer_ros.core.estimators.SubsetUpdates` (an update from the outputs
         that arrived). A type without it refuses a configuration of several sources.
+    angles : bool
+        Its estimator keeps angles (``keep_angles``: innovations of angle outputs wrapped,
+        angle states kept in ``(-pi, pi]``, :mod:`observer_ros.core.angles`); a type
+        without it refuses ``model.angle_states`` and ``model.angle_outputs``.
     needs_observable : bool
         Its design needs every mode seen by the outputs (pole placement). False: only the
         modes that do not decay (a Kalman filter, for which a detectable pair suffices);
@@ -108,6 +112,7 @@ class Capabilities:
     linear_realization: bool = False
     several_sources: bool = False
     needs_observable: bool = True
+    angles: bool = False
     disturbance_arguments: tuple = ()
 
 
