@@ -18,8 +18,8 @@ Angles: a heading crossing +-pi moves the estimate by the step it made, not by a
 A turning base measures its heading in ``(-pi, pi]``: ``3.10``, then ``-3.13``. Without
 ``model.angle_outputs`` the observers took that as a jump of ``-6.2`` rad and the heading
 estimate swung through the circle (``-0.3, -2.41, -3.47, -3.83`` for the steady Kalman
-filter below); with it the innovation is wrapped and the estimate, kept in ``(-pi, pi]``,
-equals (modulo 2 pi) the one of a measurement that never wrapped.
+filter of these tests, noise-free); with it the innovation is wrapped and the estimate,
+kept in ``(-pi, pi]``, equals (modulo 2 pi) the one of a measurement that never wrapped.
 """
 
 import math
