@@ -452,12 +452,15 @@ def unseen_modes(a, c, discrete: bool = False, state_names: Optional[Sequence[st
 
     """
     a, c = _pair(a, c, 'C', columns=True)
+    lost = pbh_lost_modes(a, c, rtol)
+    if not lost:  # the common case, asked for every sampled interval: nothing more to do
+        return ()
     n_states = a.shape[0]
     names = list(state_names) if state_names else [f'x{k + 1}' for k in range(n_states)]
     tol = rtol * max(1.0, np.linalg.norm(np.vstack([a, c]), 2))
     margin = boundary_margin(a)
     found = []
-    for mode in pbh_lost_modes(a, c, rtol):
+    for mode in lost:
         if mode.imag < -tol and any(abs(mode.conjugate() - other.value) <= 1e-6 * max(
                 1.0, abs(mode)) for other in found):
             continue
@@ -575,17 +578,16 @@ def require_observable(a, c, what: str = '(A, C)', detectable: bool = False,
     observer_ros.core.errors.UnobservableError: (A, C) is not observable: the modes 2 ...
 
     """
-    report = observability(a, c)
     seen_from = f'the outputs {list(output_names)}' if output_names else 'the outputs'
     problem = observability_problem(a, c, detectable, discrete, state_names, what, seen_from)
     if problem is not None:
         raise UnobservableError(problem)
-    return report
+    return observability(a, c)
 
 
-def require_seen(model, detectable: bool = False, a=None) -> RankReport:
+def require_seen(model, detectable: bool = False, a=None) -> None:
     """
-    Apply the one observability rule to a model: :func:`require_observable` with its names.
+    Apply the one observability rule to a model, with its names; raise when a mode is unseen.
 
     Parameters
     ----------
@@ -597,14 +599,10 @@ def require_seen(model, detectable: bool = False, a=None) -> RankReport:
         A transition matrix to use instead of ``model.a`` (one interval of a sampled model:
         then discrete).
 
-    Returns
-    -------
-    RankReport
-
     Raises
     ------
     UnobservableError
-        As :func:`require_observable`.
+        As :func:`require_observable` (the rule of :func:`observability_problem`).
 
     Examples
     --------
@@ -619,9 +617,12 @@ def require_seen(model, detectable: bool = False, a=None) -> RankReport:
 
     """
     discrete = model.is_discrete or a is not None
-    return require_observable(model.a if a is None else a, model.c, detectable=detectable,
-                              discrete=discrete, state_names=model.state_names or None,
-                              output_names=model.output_names or None)
+    output_names = model.output_names
+    problem = observability_problem(
+        model.a if a is None else a, model.c, detectable, discrete, model.state_names or None,
+        seen_from=f'the outputs {list(output_names)}' if output_names else 'the outputs')
+    if problem is not None:
+        raise UnobservableError(problem)
 
 
 def require_controllable(a, b, what: str = '(A, B)') -> RankReport:
