@@ -117,6 +117,27 @@ class Angles:
             return self.outputs
         return tuple(k for k, index in enumerate(outputs) if index in self.outputs)
 
+    def states_near(self, values, reference) -> np.ndarray:
+        """
+        Return states with each angle state moved by whole turns to within pi of ``reference``.
+
+        ``values`` and ``reference`` are ``(n,)`` or ``(k, n)``: an estimate compared with the
+        truth differs by its error, not by a turn.
+
+        Examples
+        --------
+        >>> Angles(states=(0,)).states_near([[3.1, 1.0]], [[-3.1, 1.0]]).round(4).tolist()
+        [[-3.1832, 1.0]]
+
+        """
+        values = np.array(values, dtype=float)
+        if self.states:
+            reference = np.asarray(reference, dtype=float)
+            index = list(self.states)
+            near = reference[..., index]
+            values[..., index] = near + wrap_angles(values[..., index] - near)
+        return values
+
     def keep(self, x: np.ndarray) -> np.ndarray:
         """Wrap the angle states of ``x`` to ``(-pi, pi]`` in place; return ``x``."""
         if self.states:
