@@ -38,6 +38,9 @@ Analysis
     :func:`require_observable`, :func:`require_controllable`, and the one observability
     rule every design asks: :func:`observability_problem`, :func:`unseen_modes`,
     :class:`UnseenMode`.
+Angles
+    :class:`Angles`, :func:`check_angles`, :func:`wrap_angles`: outputs and states on a
+    circle, wrapped to ``(-pi, pi]`` by every built-in estimator (``keep_angles``).
 Poles
     :func:`parse_poles`, :func:`parse_pole`, :func:`damping_pair`, :func:`clean_poles`,
     :func:`sort_poles`, :func:`is_stable`, :func:`to_discrete`,
@@ -132,6 +135,7 @@ _EXPORTS = {
         'RankReport', 'observability', 'controllability', 'observability_matrix',
         'controllability_matrix', 'pbh_lost_modes', 'require_observable',
         'require_controllable', 'observability_problem', 'unseen_modes', 'UnseenMode'),
+    'observer_ros.core.angles': ('Angles', 'check_angles', 'wrap_angles'),
     'observer_ros.core.poles': (
         'parse_poles', 'parse_pole', 'damping_pair', 'clean_poles', 'is_stable',
         'to_discrete', 'slowest_allowed_pole', 'poles_meeting_error_spec'),

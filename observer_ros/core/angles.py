@@ -51,6 +51,16 @@ def wrap_angles(values) -> np.ndarray:
     """
     Return ``values`` wrapped to ``(-pi, pi]``.
 
+    Parameters
+    ----------
+    values : array_like
+        Angles in radians, any shape.
+
+    Returns
+    -------
+    numpy.ndarray
+        The same shape, each value moved by whole turns into ``(-pi, pi]``.
+
     Examples
     --------
     >>> from observer_ros.core.angles import wrap_angles
