@@ -29,6 +29,7 @@ import numpy as np
 import pytest
 
 from conftest import console_script
+from observer_ros.app.health import configuration_check, ERROR, OK
 from observer_ros.config import validate_parameters
 from observer_ros.core import (
     ConfigError, design_chen, design_full_order, design_kalman, design_reduced_order,
@@ -210,3 +211,17 @@ def test_a_configuration_of_sources_names_the_sources_that_leave_the_mode_unseen
                                           r'modes 0 cannot be seen from the outputs '
                                           r"\['wheel_v'\] and do not decay \(mode 0: states x;"):
         validate_parameters(wheels_only)
+
+
+def test_the_health_check_asks_the_same_rule():
+    decaying = StateSpaceModel.from_matrices([[-1.0, 0.0], [0.0, -2.0]], [[1.0], [1.0]],
+                                             [[0.0, 1.0]], **NAMES)
+    check = configuration_check(decaying, 'kalman', [-3.0, -4.0], detectable=True)
+    assert check.level == OK, check.message
+    check = configuration_check(decaying, 'full_order', [-3.0, -4.0])
+    assert check.level == ERROR and 'the modes -1 cannot be seen' in check.message
+    model, _, _ = hidden_integrator(CONTINUOUS_T)
+    check = configuration_check(model, 'kalman', [-1.0, -2.0], detectable=True)
+    assert check.level == ERROR
+    assert 'not detectable: the modes 0 cannot be seen' in check.message
+    assert '(mode 0: states p, v;' in check.message
