@@ -19,9 +19,9 @@ The plant runs on simulated time (``use_sim_time``) driven by the test's ``/cloc
 of the clock is a stall of the process, deterministic and without a wait.
 """
 
+import pytest
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-import pytest
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 

@@ -44,6 +44,7 @@ from observer_ros.nodes.plant_simulator import plant_done, PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.executors import add_executor_argument, make_executor, spin_until
 from observer_ros.ros.recorder import TopicRecorder
+from observer_ros.ros.run import ros_arguments_problem
 from observer_ros.signals import StopSignals
 
 
@@ -146,6 +147,10 @@ def main(args=None) -> int:
                         help='one observer_controller node instead of observer and '
                              'state_feedback')
     add_executor_argument(parser)
+    problem = ros_arguments_problem(argv)
+    if problem:
+        print(f'closed_loop: error: {problem}', file=sys.stderr)
+        return 2
     options = parser.parse_args(remove_ros_args(argv)[1:])
     if options.record and os.path.exists(options.record):
         parser.error(f'--record: {options.record} exists already')

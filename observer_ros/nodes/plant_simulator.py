@@ -42,8 +42,10 @@ the interval since its previous sample (whole periods). So the stamps never fall
 clock by more than the tick's lateness within a period, however often the process stalls
 (with ``start + index * period`` a 0.6 s stall left every later stamp 0.6 s behind). The
 clock's exact time is not used: each new interval would cost the observer a design
-(pole placement, Riccati or sampling) at every sample, 8 to 30 ms (see the plant page). Lockstep (``plant.lockstep: true``): the plant publishes ``/clock`` itself and moves to
-the next sample only once the command computed from the current sample (stamped ``t_k``) has
+(pole placement, Riccati or sampling) at every sample, 6 to 30 ms (see the plant page).
+
+Lockstep (``plant.lockstep: true``): the plant publishes ``/clock`` itself and moves to the
+next sample only once the command computed from the current sample (stamped ``t_k``) has
 arrived, or after ``plant.lockstep_timeout`` wall-clock seconds with a warning; runs are
 deterministic and as fast as the nodes answer.
 
