@@ -16,7 +16,7 @@
 
 import pytest
 
-from conftest import CONFIG_DIR
+from conftest import CONFIG_DIR, REPOSITORY
 from observer_ros.nodes.closed_loop import ClosedLoop
 from observer_ros.ros.executors import make_executor
 from ros_support import overrides, patient_lockstep, ros_context
@@ -44,3 +44,30 @@ def test_the_recorder_has_the_estimate_of_every_sample(controller):
     period = loop.plant.period_ns
     assert y.tolist() == [(k + 1) * period for k in range(SAMPLES)]
     assert x_hat.tolist() == y.tolist()
+
+
+def commands(controller_input: str, safe_input: float) -> list:
+    config = CONFIG_DIR / 'seed003_full_order.yaml'
+    with ros_context('--params-file', str(config)) as context:
+        loop = ClosedLoop(record=True, context=context, controller=True,
+                          executor=make_executor('events', context),
+                          overrides=overrides(plant__lockstep=True, plant__samples=SAMPLES,
+                                              plant__safe_input=[safe_input],
+                                              controller__input=controller_input)
+                          + patient_lockstep())
+        try:
+            assert loop.spin(timeout_sec=120.0)
+            return loop.recorder.arrays('u_cmd')[1].ravel().tolist()
+        finally:
+            loop.destroy()
+
+
+def test_commands_as_inputs_equal_the_reported_ones_only_with_the_same_safe_input():
+    # Before its first command the plant applies plant.safe_input, while the controller
+    # with controller.input: command takes feedback.safe_command (zero here): the two agree
+    # only when these are equal, which doc/observer_controller.md now says.
+    assert commands('command', 0.0) == commands('u', 0.0)
+    assert commands('command', 0.3) != commands('u', 0.3)
+    page = (REPOSITORY / 'doc' / 'observer_controller.md').read_text(encoding='utf-8')
+    assert 'only when `plant.safe_input` equals `feedback.safe_command`' in ' '.join(
+        page.split())
