@@ -14,6 +14,7 @@
 
 """``source scripts/setup_env.sh`` leaves the caller's shell options as they were."""
 
+import hashlib
 import os
 from pathlib import Path
 import subprocess
@@ -22,11 +23,20 @@ import sys
 import pytest
 
 from conftest import REPOSITORY
-from test_doc_commands import pip_setup
 
 
-@pytest.mark.skipif(not pip_setup() or Path(sys.prefix) != REPOSITORY / '.venv',
-                    reason='needs the .venv of scripts/setup_env.sh, installed as now')
+def pip_setup() -> bool:
+    """Whether this interpreter is the repository's ``.venv``, installed as now."""
+    stamp = REPOSITORY / '.venv' / '.observer_ros_installed'
+    if Path(sys.prefix) != REPOSITORY / '.venv' or not stamp.exists():
+        return False
+    wanted = hashlib.sha256(b''.join((REPOSITORY / name).read_bytes()
+                                     for name in ('requirements.txt', 'setup.py')))
+    return stamp.read_text(encoding='utf-8').strip() == wanted.hexdigest()
+
+
+@pytest.mark.skipif(not pip_setup(), reason='needs the .venv of scripts/setup_env.sh, '
+                    'installed as now (sourcing it would install)')
 def test_a_shell_that_sources_the_set_up_survives_a_failing_command():
     # It used to leave set -euo pipefail in the caller's shell, which then closed on the
     # first failing command.
