@@ -12,7 +12,13 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""``closed_loop --record``: every sample's estimate, with the pair and with the controller."""
+"""
+``closed_loop`` with the observer-controller: what it records and what it takes as inputs.
+
+The recording has every sample's estimate, with the pair and with the controller; commands
+taken as inputs equal the reported inputs only with the same safe input in plant and
+controller.
+"""
 
 import pytest
 
