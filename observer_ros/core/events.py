@@ -545,6 +545,15 @@ class EventEngine:
         self._last_interval = interval
         return self.consumer.take(row)
 
+    def jumps_ahead(self, interval_ns: int) -> bool:
+        """Whether :meth:`_take` keeps the state before a row of this interval (fast paths ask)."""
+        return self._can_roll_back and interval_ns > JUMP_FACTOR * self._last_interval > 0
+
+    def took_steadily(self, interval_ns: int) -> None:
+        """Note a row a fast path took itself, as :meth:`_take` notes it (not a jump ahead)."""
+        self._rollback = None
+        self._last_interval = interval_ns
+
     def _insert_before_newest(self, event: Event) -> list:
         """
         Insert a measurement stamped before the newest row, after the one before it.
