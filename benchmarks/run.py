@@ -34,6 +34,10 @@ import warnings
 
 from benchmarks.common import Figures, REPOSITORY, RUN_LENGTH
 
+#: A section's goal (met, not met, only measured) in the progress line and in the table.
+GOAL_WORDS = {True: 'met', False: 'NOT met', None: 'measured'}
+TABLE_WORDS = {True: 'met', False: '**not met**', None: 'measured'}
+
 #: Section number -> module.
 SECTIONS = {1: 'design', 2: 'update', 3: 'throughput', 4: 'ros_latency', 5: 'closed_loop',
             6: 'noise', 7: 'scale', 8: 'decoding', 9: 'sources'}
@@ -96,10 +100,9 @@ def main(args=None) -> int:
         print(f'[{number}] {SECTIONS[number]} ...', flush=True)
         section = module.run(options.smoke, figures)
         print(f'[{number}] done in {time.perf_counter() - started:.1f} s: goal '
-              f'{ {True: "met", False: "NOT met", None: "measured"}[section.met]}', flush=True)
+              f'{GOAL_WORDS[section.met]}', flush=True)
         sections.append(section)
-    rows = {s.number: f'| {s.number}. {s.title} | {s.goal} | '
-            f'{ {True: "met", False: "**not met**", None: "measured"}[s.met]} |'
+    rows = {s.number: f'| {s.number}. {s.title} | {s.goal} | {TABLE_WORDS[s.met]} |'
             for s in sections}
     bodies = {s.number: s.markdown() for s in sections}
     report = root / 'BENCHMARKS.md'

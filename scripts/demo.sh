@@ -6,6 +6,7 @@
 # third-order plant, its reduced-order observer and state feedback run as ROS 2 nodes in
 # lockstep for 3 s of simulated time; the error table is printed and output/closed_loop.png
 # written. Extra arguments go to closed_loop (for example another --params-file).
+set -euo pipefail
 source "$(dirname "$0")/setup_env.sh"
 cd "$ROOT"
 export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$((RANDOM % 100 + 1))}"

@@ -4,9 +4,16 @@
 # Sourced by demo.sh and test.sh: creates .venv with a Python 3.10-3.13 and installs
 # requirements.txt plus this package (editable). Re-running is cheap: it reinstalls only
 # when requirements.txt or setup.py change.
-set -euo pipefail
+#
+# Sourced into an interactive shell it leaves that shell's options as they were: the set-up
+# runs with set -euo pipefail in a subshell, and only ROOT, VENV and the exports below reach
+# the caller (a failed set-up returns 1). The scripts that source it set their own options.
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 VENV="${OBSERVER_ROS_VENV:-$ROOT/.venv}"
+
+# Not under "if": there bash would ignore set -e inside the subshell too.
+(
+set -euo pipefail
 
 pick_python() {
   local candidate version
@@ -48,7 +55,6 @@ if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
   "$VENV/bin/python" -m pip install -q -e "$ROOT"
   echo "$want" > "$stamp"
 fi
-export PATH="$VENV/bin:$PATH"
 # The report tests render the HTML reports in headless Chromium (Debian's package): install
 # it where this runs as root with apt-get and it is missing (CI's fresh machines).
 if ! command -v chromium >/dev/null 2>&1 && command -v apt-get >/dev/null 2>&1 \
@@ -57,6 +63,15 @@ if ! command -v chromium >/dev/null 2>&1 && command -v apt-get >/dev/null 2>&1 \
   (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium \
     >/dev/null) || echo "observer_ros: could not install chromium" >&2
 fi
+)
+_observer_ros_status=$?
+if [ "$_observer_ros_status" != 0 ]; then
+  unset _observer_ros_status
+  echo "observer_ros: the set-up of $VENV failed" >&2
+  return 1 2>/dev/null || exit 1
+fi
+unset _observer_ros_status
+export PATH="$VENV/bin:$PATH"
 # Keep ROS traffic on this machine.
 export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST}"
 export MPLBACKEND=Agg

@@ -237,6 +237,39 @@ def test_the_engine_drops_and_counts_by_the_stamp_rules():
                                       restart_gap=1, restart_backward_jump=1)
 
 
+def test_without_a_history_the_samples_before_a_jump_ahead_are_inserted_before_it():
+    # The no-history rule: after a row stamped more than twice the interval before it ahead,
+    # a measurement between the previous stamp and it is inserted (the newest row taken
+    # again after it, with the input held at the late stamp); a plain reorder is dropped.
+    engine = EventEngine(n_outputs=1, n_inputs=1, max_gap_ns=SECOND_NS)
+    for stamp in (0, 10, 20):
+        engine.add_input(stamp, [stamp])
+        engine.add_measurement(stamp, [stamp])
+    assert engine.add_measurement(100, [100.0])[0].interval_ns == 80  # the early outlier
+    engine.add_input(30, [30])
+    newest = engine.add_measurement(30, [30.0])
+    assert [(row.stamp_ns, row.u.tolist(), row.interval_ns, row.rerun) for row in newest] == [
+        (100, [30.0], 70, True)]
+    assert engine.add_measurement(25, [25.0]) == []  # before the previous stamp (30)
+    engine.add_measurement(50, [50.0])  # before its input: the newest holds the one of 30
+    newest = engine.add_input(50, [50])  # the input held at 50 came: taken again
+    assert [(row.stamp_ns, row.u.tolist(), row.interval_ns) for row in newest] == [
+        (100, [50.0], 50)]
+    engine.add_input(100, [100])
+    assert [(row.stamp_ns, row.interval_ns) for row in engine.add_measurement(110, [1.0])] == [
+        (110, 10)]
+    assert engine.add_measurement(90, [90.0]) == []  # in order again: a step back is dropped
+    rows = engine.consumer.rows
+    assert [row.stamp_ns for row in rows if not row.rerun] == [0, 10, 20, 100, 110]
+    assert [row.stamp_ns for row in rows if row.rerun] == [30, 100, 50, 100, 100]
+    assert engine.counters['out_of_order'] == 2 and engine.counters['reruns'] == 2
+    assert engine.counters['input_reruns'] == 1
+    reorder = EventEngine(n_outputs=1, n_inputs=0, max_gap_ns=SECOND_NS)
+    for stamp in (0, 10, 20, 30, 25):
+        reorder.add_measurement(stamp, [1.0])
+    assert reorder.counters['out_of_order'] == 1 and not reorder.counters['reruns']
+
+
 def test_an_unknown_source_is_refused():
     engine = EventEngine(n_outputs=1, n_inputs=1, max_gap_ns=SECOND_NS)
     with pytest.raises(ValueError, match="measurement sources \\['y'\\], got 'imu0'"):

@@ -203,3 +203,21 @@ def test_every_test_the_docs_cite_exists():
     for page in pages():
         cited.update(re.findall(r'`(test_\w+)`', page.read_text(encoding='utf-8')))
     assert cited and cited <= defined, sorted(cited - defined)
+
+
+@pytest.mark.parametrize('name', console_scripts())
+def test_every_option_of_an_executable_is_on_its_page(name, capsys):
+    # closed_loop's page used to leave --controller out.
+    from importlib.metadata import entry_points
+    (entry,) = [point for point in entry_points(group='console_scripts')
+                if point.name == name and point.value.startswith('observer_ros.')]
+    with pytest.raises(SystemExit) as raised:
+        entry.load()([name, '--help'])
+    assert raised.value.code == 0
+    options = set(re.findall(r'(?<![\w-])(--[a-z][\w-]*\w)', capsys.readouterr().out))
+    options -= {'--help', '--ros-args', '--ros'}
+    # The executable's page, and the one of what every node shares (--executor).
+    page = ''.join((DOC / 'nodes' / f'{page}.md').read_text(encoding='utf-8')
+                   for page in (name, 'index'))
+    assert options and not [option for option in sorted(options)
+                            if f'`{option}' not in page], name

@@ -14,8 +14,13 @@
 
 """Lint like ament_flake8: 99 columns, single quotes, google import order, docstrings."""
 
+import io
+import re
 import subprocess
 import sys
+import tokenize
+
+import pytest
 
 from conftest import REPOSITORY
 
@@ -28,3 +33,29 @@ def test_flake8():
         [sys.executable, '-m', 'flake8', '--config', str(REPOSITORY / 'setup.cfg'), *paths],
         capture_output=True, text=True, cwd=REPOSITORY)
     assert result.returncode == 0, f'flake8 found problems:\n{result.stdout}{result.stderr}'
+
+
+@pytest.mark.skipif(sys.version_info >= (3, 12), reason='flake8 checks inside f-strings there')
+def test_no_f_string_field_opens_or_closes_with_a_space():
+    # Python 3.12 (Jazzy's) tokenizes f-strings, so flake8 there flags f'{ {...}[x]}' (E201)
+    # and f'{x }' (E202), which it cannot see on 3.11: benchmarks/run.py had two.
+    found = []
+    for path in python_files():
+        text = path.read_text(encoding='utf-8')
+        for token in tokenize.generate_tokens(io.StringIO(text).readline):
+            prefix = re.match(r'[A-Za-z]*', token.string).group().lower()
+            if token.type != tokenize.STRING or 'f' not in prefix:
+                continue
+            body = token.string.replace('{{', '').replace('}}', '')
+            if re.search(r'\{\s|\s\}', body):
+                found.append(f'{path.relative_to(REPOSITORY)}:{token.start[0]}')
+    assert not found, found
+
+
+def python_files() -> list:
+    """Return the Python files flake8 lints here."""
+    files = []
+    for name in LINTED:
+        path = REPOSITORY / name
+        files += sorted(path.rglob('*.py')) if path.is_dir() else [path] * path.exists()
+    return files

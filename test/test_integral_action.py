@@ -31,7 +31,7 @@ from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
 import yaml
 
-from observer_ros.config import validate_parameters
+from observer_ros.config import PARAMETER_SPECS, validate_parameters
 from observer_ros.core.design.integral import augmented_pair
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.feedback_law import IntegralAction, StateFeedbackLaw
@@ -108,6 +108,17 @@ def predicted_output(system, reference, offset):
 def settled(y, period=0.01):
     """Return the samples after :data:`SETTLED` seconds."""
     return y[int(SETTLED / period):]
+
+
+def test_an_empty_reference_gain_gives_no_n_with_integral_action_as_its_text_says():
+    # The description said "empty: unit DC gain when the plant is square" while with
+    # integral action an empty value gives no N.
+    assert validate_parameters(SERVO).feedback.reference_gain is None
+    assert validate_parameters(MOTOR).feedback.reference_gain is not None
+    text = PARAMETER_SPECS['feedback.reference_gain'].description
+    assert 'without integral action, N for unit DC gain from r to y when the plant is square' \
+        in text
+    assert 'with integral action (feedback.integral_poles or integral_gain) no N r term' in text
 
 
 def test_design_places_the_augmented_poles():

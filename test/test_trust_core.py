@@ -372,7 +372,8 @@ def test_every_tool_refuses_an_unknown_parameter_the_same_way(tmp_path):
     path.write_text((CONFIG_DIR / 'seed003_full_order.yaml').read_text().replace(
         'poles:', 'polse:', 1))
     # before: replay_bag ignored the misspelt key and replayed without an observer change
-    with pytest.raises(ConfigError, match=r'^observer\.polse: unknown parameter'):
+    with pytest.raises(ConfigError, match=r'^observer\.polse: unknown parameter; did you mean '
+                       r"'observer\.poles'\? \(every parameter: doc/parameters\.md\)"):
         replay_bag(tmp_path / 'no_bag_needed', path)
     assert design_main([str(path)]) == 2
 

@@ -355,7 +355,8 @@ def test_a_node_warns_about_unknown_keys_of_its_own_sections(tmp_path):
     process = node_process(code, '--params-file', str(path))
     out, err = process.communicate(timeout=60)
     assert process.returncode == 0, err
-    assert 'unknown parameter observer.polse in the parameter file is ignored' in err
+    assert ('observer.polse in the parameter file is ignored: unknown parameter; did you '
+            "mean 'observer.poles'? (every parameter: doc/parameters.md)") in err
     assert 'feedback.' not in err  # another node's section: no warning
 
 

@@ -32,7 +32,8 @@ ROS-free (numpy, PyYAML and the core), shared by the nodes, the design CLI and t
 from observer_ros.config.configuration import (
     Configuration, NODE_PARTS, PARTS, validate_parameters)
 from observer_ros.config.feedback import FeedbackSettings
-from observer_ros.config.loader import flatten_parameters, load_parameter_file
+from observer_ros.config.loader import (
+    check_parameter_lists, flatten_parameters, load_parameter_file, read_parameter_document)
 from observer_ros.config.loop import LoopAnalysis
 from observer_ros.config.model import Augmentation
 from observer_ros.config.observer import JointStateSelection, ObserverSetup
@@ -53,6 +54,7 @@ __all__ = ['BOOL', 'DOUBLE', 'DOUBLE_ARRAY', 'INTEGER', 'STRING', 'STRING_ARRAY'
            'LoopAnalysis', 'MESSAGE_TYPES', 'NODE_PARTS', 'OBSERVER', 'OBSERVER_ARGUMENTS',
            'ObserverSetup', 'PARAMETERS', 'PARAMETER_SPECS', 'PARTS', 'PLANT',
            'ParameterSpec', 'PlantSettings', 'ROS_PARAMETERS', 'Sections', 'TOPICS',
-           'TOPIC_ROLES', 'TopicSettings', 'VALUE_LIMIT', 'complete_parameters',
-           'flatten_parameters', 'load_parameter_file', 'node_parameters', 'parameter_table',
+           'TOPIC_ROLES', 'TopicSettings', 'VALUE_LIMIT', 'check_parameter_lists',
+           'complete_parameters', 'flatten_parameters', 'load_parameter_file',
+           'node_parameters', 'parameter_table', 'read_parameter_document',
            'validate_parameters']

@@ -256,8 +256,11 @@ FEEDBACK_PARAMETERS = (
           dynamic=True),
     _spec('feedback.method', STRING, 'auto', 'Pole placement method for K: '
           + ' | '.join(METHODS) + '.', _FB, dynamic=True, choices=METHODS),
-    _values('feedback.reference_gain', _matrix('Reference gain N, m x p; empty: unit DC gain '
-                                               'when the plant is square'), _FB, dynamic=True),
+    _values('feedback.reference_gain', _matrix(
+        'Reference gain N, m x p; empty: without integral action, N for unit DC gain from r '
+        'to y when the plant is square (m = p) and its DC gain invertible, else no N r term; '
+        'with integral action (feedback.integral_poles or integral_gain) no N r term, the '
+        'integrator brings the outputs to r'), _FB, dynamic=True),
     _values('feedback.input_limits', 'Command saturation: [min, max] or [min_1, max_1, ..., '
             'min_m, max_m]. With integral action the integrator stops while the command is '
             'saturated and its error pushes further out (conditional integration).', _FB,

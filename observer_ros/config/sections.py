@@ -38,7 +38,8 @@ carries its argument and its reason, the binding the parameter; no text is parse
 
 from contextlib import contextmanager
 from dataclasses import dataclass, field, fields
-from typing import Any, Iterator, Mapping
+import difflib
+from typing import Any, Iterable, Iterator, Mapping
 
 import numpy as np
 
@@ -119,9 +120,40 @@ def complete_parameters(params: Mapping[str, Any], strict: bool = False) -> dict
         if name.startswith(SOURCES_PREFIX):
             raise ConfigError(name, unknown_source(name, sources))
         if strict and not (name in ROS_PARAMETERS or name.startswith('qos_overrides.')):
-            raise ConfigError(name, 'unknown parameter; see the parameter schema in README')
+            raise ConfigError(name, unknown_parameter(name, PARAMETER_SPECS))
         complete[name] = value
     return complete
+
+
+#: The page that lists every parameter (generated from the schema).
+PARAMETERS_PAGE = 'doc/parameters.md'
+
+#: difflib similarity from which a parameter name is offered for a misspelt one, and how far
+#: below the best match the others offered may be.
+CLOSE_NAME, CLOSE_SPREAD = 0.75, 0.05
+
+
+def unknown_parameter(name: str, known: Iterable[str]) -> str:
+    """
+    Say that ``name`` is no parameter: the nearest of the ``known`` names and the page.
+
+    Examples
+    --------
+    >>> unknown_parameter('observer.polse', ['observer.poles', 'feedback.poles'])
+    "unknown parameter; did you mean 'observer.poles'? (every parameter: doc/parameters.md)"
+
+    """
+    names = sorted(known)
+    close = [match for match in names if match.lower() == name.lower()]
+    if not close:
+        scored = sorted(((difflib.SequenceMatcher(None, name, match).ratio(), match)
+                         for match in names), reverse=True)
+        best = scored[0][0] if scored else 0.0
+        close = [match for ratio, match in scored[:3]
+                 if ratio >= CLOSE_NAME and ratio >= best - CLOSE_SPREAD]
+    guess = (f'; did you mean {" or ".join(repr(match) for match in close)}?' if close
+             else '')
+    return f'unknown parameter{guess} (every parameter: {PARAMETERS_PAGE})'
 
 
 class Binding(Mapping):

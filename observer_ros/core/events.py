@@ -54,8 +54,15 @@ at the newest stamp (a row with ``rerun`` set). A measurement older than the his
 dropped and counted (``too_old``; ``out_of_order`` with a history of 0), as is one from a
 source whose sample at that stamp is already in the history (``duplicate``). A source's
 fixed latency moves its stamps back by it and takes the same path. With one source and no
-history the engine is what it was: no history is kept, a late measurement is dropped
-(``out_of_order``), and the queue is in arrival order.
+history no history is kept, a late measurement is dropped (``out_of_order``), and the queue
+is in arrival order, with one exception, the history's rule kept for one row: a measurement
+stamped more than :data:`JUMP_FACTOR` times the interval before it ahead of the previous one
+(an early-stamped outlier, or a real gap) is taken with the consumer's state before it kept
+(:meth:`EventEngine._take`); a measurement stamped between the previous one and it is then
+inserted before it (:meth:`EventEngine._insert_before_newest`): the consumer returns to that
+state, takes the late measurement, then the newest again, and what it returns is the
+corrected newest estimate, at the newest stamp, as with a history. So one early outlier never
+silences the genuine samples after it; once their stamps pass it they follow on again.
 """
 
 import bisect
@@ -82,6 +89,11 @@ PREDICTION = 'prediction'
 
 #: What :meth:`EventEngine._admit` says of a measurement to insert through the history.
 LATE = -1
+
+#: Without a history, a row whose interval exceeds this many times the interval before it is
+#: taken with the consumer's state before it kept, so that the measurements stamped before
+#: it (it may be an early-stamped outlier) are inserted, not dropped (the module notes).
+JUMP_FACTOR = 2
 
 
 class Source(NamedTuple):
@@ -310,6 +322,10 @@ class EventEngine:
         #: None, or a list that collects each entry leaving the history (its estimate final:
         #: no later sample re-runs it), oldest first: the in-order estimates of a replay.
         self.retired: Optional[list] = None
+        #: Without a history: ``(state before the newest row, that row)`` after a jump ahead
+        #: (see the module notes), else None; and the interval of the last row taken.
+        self._rollback: Optional[tuple] = None
+        self._last_interval = 0
         self._base_ns: Optional[int] = None  # the last entry pruned: the first one's previous
         self._floor_ns: Optional[int] = None  # a restart: nothing before it is inserted
         self.per_source = {source.name: Counter() for source in measured}
@@ -318,6 +334,8 @@ class EventEngine:
         self.input_stamped = input_stamped
         self.clock_tolerance_ns = int(clock_tolerance_ns)
         self.consumer = consumer if consumer is not None else RowCollector()
+        self._can_roll_back = (not self.keeps_history and hasattr(self.consumer, 'save')
+                               and hasattr(self.consumer, 'load'))
         self.counters: Counter = Counter()
         self.events: list = []
         self.inputs = InputHistory()
@@ -392,13 +410,18 @@ class EventEngine:
         self.inputs.store(stamp_ns, vector)
         self.inputs_absent = self.autonomous
         previous = self.consumer.stamp_ns
+        rollback = self._rollback
         if previous is None or stamp_ns >= previous - self.max_gap_ns:
             # Not while a backward jump (a looping bag) is under way; with a history, keep
-            # the inputs of its rows.
-            self.inputs.prune(self._oldest_previous() if self.keeps_history else previous)
+            # the inputs of its rows (without one, of the newest row that may be re-taken).
+            self.inputs.prune(self._oldest_previous() if self.keeps_history
+                              else previous if rollback is None
+                              else rollback[1].stamp_ns - rollback[1].interval_ns)
         if self.keeps_history and previous is not None and (
                 stamp_ns < previous or self.pairs_at_stamp and stamp_ns == previous):
             return self._rerun_for_input(stamp_ns) + self.process(force=False)
+        if rollback is not None and stamp_ns < previous:
+            return self._retake_for_input(stamp_ns) + self.process(force=False)
         return self.process(force=False)
 
     def add_measurement(self, stamp_ns: int, y, now_ns: Optional[int] = None,
@@ -422,9 +445,8 @@ class EventEngine:
             previous = self.consumer.stamp_ns
             if (previous is not None and in_sequence(stamp_ns - previous, self.max_gap_ns)
                     and self.ready(stamp_ns if self.pairs_at_stamp else previous)):
-                produced = self.consumer.take(Row(source, stamp_ns, vector,
-                                                  self.input_for(previous),
-                                                  stamp_ns - previous, int(arrival_ns)))
+                produced = self._take(Row(source, stamp_ns, vector, self.input_for(previous),
+                                          stamp_ns - previous, int(arrival_ns)))
                 return produced + self.process(force=False) if self.queue else produced
         self._enqueue(source, stamp_ns, vector.copy(), int(arrival_ns))
         return self.process(force=False)
@@ -511,10 +533,87 @@ class EventEngine:
             if self.keeps_history:
                 produced += (self._rerun(event) if interval == LATE
                              else self._take_new(event, u, interval))
-            else:
+            elif interval == LATE:
+                produced += self._insert_before_newest(event)
+            elif event.source == PREDICTION:
                 produced += self.consumer.take(Row(event.source, event.stamp_ns, event.values,
                                                    u, interval, event.arrival_ns))
+            else:
+                produced += self._take(Row(event.source, event.stamp_ns, event.values, u,
+                                           interval, event.arrival_ns))
         return produced
+
+    # --- one row kept without a history --------------------------------------------------
+
+    def _take(self, row: Row) -> list:
+        """
+        Take a measurement's row without a history (the one rule kept: the module notes).
+
+        A row whose interval exceeds :data:`JUMP_FACTOR` times the one before it is taken
+        with the consumer's state before it kept, for :meth:`_insert_before_newest`.
+        """
+        interval = row.interval_ns
+        if self._can_roll_back and interval > JUMP_FACTOR * self._last_interval > 0:
+            self._rollback = (self.consumer.save(), row)
+        else:
+            self._rollback = None
+        self._last_interval = interval
+        return self.consumer.take(row)
+
+    def jumps_ahead(self, interval_ns: int) -> bool:
+        """Whether :meth:`_take` keeps the state before a row of this interval (fast paths ask)."""
+        return self._can_roll_back and interval_ns > JUMP_FACTOR * self._last_interval > 0
+
+    def took_steadily(self, interval_ns: int) -> None:
+        """Note a row a fast path took itself, as :meth:`_take` notes it (not a jump ahead)."""
+        self._rollback = None
+        self._last_interval = interval_ns
+
+    def _insert_before_newest(self, event: Event) -> list:
+        """
+        Insert a measurement stamped before the newest row, after the one before it.
+
+        The consumer returns to its state before the newest row, takes the late measurement
+        (with the input held at the previous stamp), then the newest row again (with the
+        input held at the late stamp); returns what the newest row gives, the corrected
+        newest estimate. The state after the late measurement is kept for the next one.
+        """
+        state, newest = self._rollback
+        previous = newest.stamp_ns - newest.interval_ns
+        stamp = event.stamp_ns
+        consumer = self.consumer
+        consumer.load(state)
+        consumer.take(Row(event.source, stamp, event.values, self.input_for(previous),
+                          stamp - previous, event.arrival_ns, rerun=True))
+        if consumer.stamp_ns is None:  # the consumer restarted from its initial state
+            newest = newest._replace(u=self.zero_input, interval_ns=0, rerun=True)
+        else:
+            newest = newest._replace(u=self.input_for(stamp),
+                                     interval_ns=newest.stamp_ns - stamp, rerun=True)
+        self._rollback = (consumer.save(), newest)
+        self._last_interval = newest.interval_ns
+        produced = consumer.take(newest)
+        counters = self.counters
+        counters['reruns'] += 1
+        counters['rerun_rows'] += 2
+        counters['corrected'] += len(produced)
+        return produced
+
+    def _retake_for_input(self, stamp_ns: int) -> list:
+        """
+        Take the newest row again when a late input is the one held at its previous stamp.
+
+        Without a history, while :meth:`_take` keeps the state before the newest row; the
+        counterpart of :meth:`_rerun_for_input`.
+        """
+        state, newest = self._rollback
+        previous = newest.stamp_ns - newest.interval_ns
+        index = self.inputs.index_at(previous)
+        if index < 0 or self.inputs.stamps[index] != stamp_ns:
+            return []  # a later input is held there, or it is stamped after the previous one
+        self.consumer.load(state)
+        self.counters['input_reruns'] += 1
+        return self.consumer.take(newest._replace(u=self.input_for(previous), rerun=True))
 
     def _admit(self, event: Event, previous: Optional[int]) -> Optional[int]:
         """
@@ -538,6 +637,9 @@ class EventEngine:
                                 f'stamp ({stamp} ns)'))
             return None
         if -self.max_gap_ns <= step < 0:
+            rollback = self._rollback
+            if rollback is not None and stamp > rollback[1].stamp_ns - rollback[1].interval_ns:
+                return LATE  # after a jump ahead: inserted before it (the module notes)
             self.counters['out_of_order'] += 1
             self.events.append(('out_of_order', f'dropped a measurement older than the '
                                 f'previous one ({stamp} < {previous} ns)'))
@@ -706,7 +808,8 @@ class EventEngine:
             if first >= len(entries):
                 return []
             previous = entries[index].stamp_ns
-        if self.inputs.stamps[self.inputs.index_at(previous)] != stamp_ns:
+        index = self.inputs.index_at(previous)
+        if index < 0 or self.inputs.stamps[index] != stamp_ns:
             return []  # a later input is held there: this one changes no row taken
         self.counters['input_reruns'] += 1
         return self._run_again(first, None)
@@ -738,6 +841,7 @@ class EventEngine:
         """Forget the history (the consumer starts again: :meth:`EventStream.reset`)."""
         self._retire(len(self.entries))
         self._base_ns = self._floor_ns = None
+        self._rollback, self._last_interval = None, 0
 
     def history_depth(self) -> tuple:
         """Return ``(entries, span_ns)``: the history in use, and the stamps it spans."""

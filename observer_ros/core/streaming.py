@@ -471,9 +471,13 @@ class EventStream:
                 or not in_sequence(stamp_ns - key[0], engine.max_gap_ns)
                 or ahead_of_clock(stamp_ns, now_ns, engine.clock_tolerance_ns)):
             return None
+        interval = stamp_ns - key[0]
+        if engine.jumps_ahead(interval):
+            return None  # the engine keeps the state before it (an early outlier?)
         prepared = estimator.advance_prepared(stamp_ns, y, key[1])
         if prepared is None:
             return None
+        engine.took_steadily(interval)
         result, bounded = prepared
         limit = self._result_limit
         if not bounded and not (math.isfinite(sum(result)) and max(result) <= limit

@@ -44,11 +44,16 @@ from observer_ros.nodes.plant_simulator import plant_done, PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.executors import add_executor_argument, make_executor, spin_until
 from observer_ros.ros.recorder import TopicRecorder
+from observer_ros.ros.run import ros_arguments_problem
 from observer_ros.signals import StopSignals
 
 
 #: Topics recorded by ``--report`` (and by tests).
 RECORDED_TOPICS = ('y', 'u', 'u_cmd', 'x_true', 'x_hat')
+
+#: Seconds the recorder may wait, once the plant is done, for the estimate of its last
+#: sample: a controller publishes the last command (which ends the run) before it.
+LAST_ESTIMATE_WAIT = 5.0
 
 
 class ClosedLoop:
@@ -101,9 +106,24 @@ class ClosedLoop:
 
     def spin(self, timeout_sec: Optional[float] = None,
              stop: Optional[Callable[[], bool]] = None) -> bool:
-        """Spin until ``plant.samples`` are done (or forever, or ``stop()``); True when done."""
-        return spin_until(self.executor, plant_done(self.plant), timeout_sec, self.context,
+        """
+        Spin until ``plant.samples`` are done (or forever, or ``stop()``); True when done.
+
+        With a recorder, then until it has the estimate of the last sample (at most
+        :data:`LAST_ESTIMATE_WAIT` seconds): an ``observer_controller`` publishes the last
+        command, which ends the run, before that estimate.
+        """
+        done = spin_until(self.executor, plant_done(self.plant), timeout_sec, self.context,
                           stop)
+        if done and self.recorder is not None:
+            last = self.plant.stamp_ns
+
+            def estimated() -> bool:
+                stamps = self.recorder.stamps['x_hat']
+                return bool(stamps) and stamps[-1] >= last
+
+            spin_until(self.executor, estimated, LAST_ESTIMATE_WAIT, self.context, stop)
+        return done
 
     def destroy(self) -> None:
         """Destroy every node and the executor."""
@@ -146,6 +166,10 @@ def main(args=None) -> int:
                         help='one observer_controller node instead of observer and '
                              'state_feedback')
     add_executor_argument(parser)
+    problem = ros_arguments_problem(argv)
+    if problem:
+        print(f'closed_loop: error: {problem}', file=sys.stderr)
+        return 2
     options = parser.parse_args(remove_ros_args(argv)[1:])
     if options.record and os.path.exists(options.record):
         parser.error(f'--record: {options.record} exists already')

@@ -35,8 +35,17 @@ plant starts anyway with a warning naming what is missing. A steady timer polls 
 nothing blocks.
 
 Real time: then a timer on the node clock ticks at ``plant.rate_hz``, the first sample at
-once. Lockstep (``plant.lockstep: true``): the plant publishes ``/clock`` itself and moves to
-the next sample only once the command computed from the current sample (stamped ``t_k``) has
+once. Each sample is stamped with the node clock's time to the period: the latest point
+``start + k * period`` at or before the clock when the tick runs, ``k`` counting every period
+since the start, those the timer skipped after a stall included; the plant simulates exactly
+the interval since its previous sample (whole periods). So the stamps never fall behind the
+clock by more than the tick's lateness within a period, however often the process stalls
+(with ``start + index * period`` a 0.6 s stall left every later stamp 0.6 s behind). The
+clock's exact time is not used: each new interval would cost the observer a design
+(pole placement, Riccati or sampling) at every sample, 6 to 30 ms (see the plant page).
+
+Lockstep (``plant.lockstep: true``): the plant publishes ``/clock`` itself and moves to the
+next sample only once the command computed from the current sample (stamped ``t_k``) has
 arrived, or after ``plant.lockstep_timeout`` wall-clock seconds with a warning; runs are
 deterministic and as fast as the nodes answer.
 
@@ -109,6 +118,10 @@ class PlantSimulatorNode(ConfiguredNode):
         self.started = False
         self.index = 0
         self.stamp_ns = 0
+        #: The stamp of the previous sample (the one a command on time was computed from).
+        self.previous_stamp_ns = -self.period_ns
+        #: Real time: the period count ``k`` of the last sample (stamp ``start + k * period``).
+        self.period_index = -1
         self.counters: Counter = Counter()
         self.finished = Future()
         self.health = NodeHealth(
@@ -187,7 +200,7 @@ class PlantSimulatorNode(ConfiguredNode):
         if commanded:
             if 'first_command_sample' not in self.counters:
                 self.counters['first_command_sample'] = self.index
-            if self.command_stamp == self.stamp_ns - self.period_ns:
+            if self.command_stamp == self.previous_stamp_ns:
                 self.counters['commands_on_time'] += 1
         self.applied = applied
         if not self.autonomous:
@@ -222,10 +235,28 @@ class PlantSimulatorNode(ConfiguredNode):
         if self._finish_if_done():
             self.tick_timer.cancel()
             return
-        self.stamp_ns = self.start_ns + self.index * self.period_ns
+        elapsed = self.get_clock().now().nanoseconds - self.start_ns
+        period_index = max(0, elapsed) // self.period_ns
+        periods = period_index - self.period_index
+        if periods <= 0:
+            return  # the previous tick came late, in this period already: its sample stands
+        if self.index:
+            if periods > 1:
+                self.counters['skipped_periods'] += periods - 1
+            self._simulate(periods)
+        self.period_index = period_index
+        self.previous_stamp_ns = self.stamp_ns
+        self.stamp_ns = self.start_ns + period_index * self.period_ns
         self._publish_sample()
-        self.simulator.step(self.applied, self.period)
         self.index += 1
+
+    def _simulate(self, periods: int) -> None:
+        """Advance the plant ``periods`` sample periods with the applied input held."""
+        if self.simulator.model.is_discrete:
+            for _ in range(periods):  # a discrete model advances one period per step
+                self.simulator.step(self.applied, self.period)
+        else:
+            self.simulator.step(self.applied, periods * self.period_ns / NANOSECONDS)
 
     def missing_peers(self) -> list:
         """Return what the plant still waits for before its first sample (empty: nothing)."""
@@ -272,6 +303,7 @@ class PlantSimulatorNode(ConfiguredNode):
     def _lockstep_sample(self) -> None:
         if self._finish_if_done():
             return
+        self.previous_stamp_ns = self.stamp_ns
         self.stamp_ns = (self.index + 1) * self.period_ns
         clock = ClockMessage()
         ns_to_stamp(clock.clock, self.stamp_ns)

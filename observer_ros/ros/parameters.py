@@ -33,7 +33,7 @@ from rclpy.subscription import Subscription
 from observer_ros.config import (
     Configuration, node_parameters, PARAMETER_SPECS, ParameterSpec, validate_parameters)
 from observer_ros.config.schema import source_specs
-from observer_ros.config.sections import source_names, SOURCES_PREFIX
+from observer_ros.config.sections import source_names, SOURCES_PREFIX, unknown_parameter
 from observer_ros.core.arguments import (
     BOOL, DOUBLE, DOUBLE_ARRAY, INTEGER, STRING, STRING_ARRAY)
 from observer_ros.core.errors import ConfigError, DesignError
@@ -194,8 +194,8 @@ class SchemaParameters:
                          and not name.startswith(SOURCES_PREFIX))
         for name in unknown:
             self.get_logger().warning(
-                f'unknown parameter {name} in the parameter file is ignored (see the '
-                f'parameter schema in README)')
+                f'{name} in the parameter file is ignored: '
+                f'{unknown_parameter(name, set(self.specs) | set(PARAMETER_SPECS))}')
 
     def _on_invalid_clock(self, problem: str) -> None:
         self.invalid_clock += 1

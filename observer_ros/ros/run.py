@@ -17,9 +17,12 @@ The ``main`` of every node: spin one node the Jazzy way and return the exit stat
 
 :func:`run_node` reads ``--executor``, builds the node, spins it until done or stopped
 (SIGINT and SIGTERM through :class:`observer_ros.signals.StopSignals`) and shuts down
-cleanly; a bad configuration is one line on stderr and exit status 2.
+cleanly; a bad configuration is one line on stderr and exit status 2, and so is a params
+file the ROS loader would refuse (missing, not YAML, a list mixing ``0`` and ``1.0``): it is
+read first, as ``design_observer`` reads it, rather than left to rcl's traceback.
 """
 
+import re
 import sys
 from typing import Callable, Optional
 
@@ -27,7 +30,9 @@ import rclpy
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
+from rclpy.utilities import remove_ros_args
 
+from observer_ros.config.loader import read_parameter_document
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.ros.executors import executor_option, make_executor, spin_until
 from observer_ros.signals import StopSignals
@@ -45,6 +50,10 @@ def run_node(factory: Callable[[], Node], program: str, args=None,
     (:class:`observer_ros.signals.StopSignals`).
     """
     argv = sys.argv if args is None else list(args)
+    problem = ros_arguments_problem(argv)
+    if problem:
+        print(f'{program}: error: {problem}', file=sys.stderr)
+        return 2
     executor_name = executor_option(program, argv)
     with StopSignals() as stop:
         # rclpy's own handlers would raise KeyboardInterrupt inside callbacks and shut the
@@ -70,4 +79,41 @@ def run_node(factory: Callable[[], Node], program: str, args=None,
     return 0
 
 
-__all__ = ['run_node']
+def ros_arguments_problem(argv) -> Optional[str]:
+    """
+    Return why the ROS arguments of ``argv`` cannot start a node (one line), or None.
+
+    Each ``--params-file`` is read as ``design_observer`` reads it (missing, not YAML, a list
+    mixing ``0`` and ``1.0``: the parameter named); then rcl parses the rest.
+    """
+    try:
+        for path in params_files(argv):
+            read_parameter_document(path)
+        remove_ros_args(list(argv))
+    except ConfigError as e:
+        return str(e)
+    except RuntimeError as e:  # rcl's RCLInvalidROSArgsError: arguments it cannot parse
+        return ros_arguments_error(e)
+    return None
+
+
+def params_files(argv) -> list:
+    """Return the paths given to ``--params-file`` in the ``--ros-args`` parts of ``argv``."""
+    paths, ros_args = [], False
+    for position, argument in enumerate(argv):
+        if argument == '--ros-args':
+            ros_args = True
+        elif argument == '--':
+            ros_args = False
+        elif ros_args and argument == '--params-file' and position + 1 < len(argv):
+            paths.append(argv[position + 1])
+    return paths
+
+
+def ros_arguments_error(error: Exception) -> str:
+    """Return rcl's refusal of the ROS arguments on one line, without its source locations."""
+    text = ' '.join(str(error).split())
+    return re.sub(r',? at [^,]*\.c:\d+', '', text).rstrip(', ')
+
+
+__all__ = ['params_files', 'ros_arguments_error', 'ros_arguments_problem', 'run_node']
