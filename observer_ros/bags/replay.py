@@ -410,14 +410,36 @@ def replay_bag(bag: Union[str, os.PathLike],
 
     """
     system = load_system(parameters)
-    if system.observer.sources is not None or system.topics['u'].fields:
+    if system.observer.sources is not None:
         return _replay_sources(bag, system, u_topic, use_log_time)
     if system.model.n_inputs == 0:  # no inputs: the measurements alone
         (outputs,) = read_topics(bag, [topic_request(system, 'y', y_topic)])
         inputs = TopicData(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 0)))
+    elif system.topics['u'].fields:  # u by field path (a /cmd_vel Twist), y a vector
+        from observer_ros.bags.signals import FieldRequest, read_fields
+        settings = system.topics['u']
+        (outputs,) = read_topics(bag, [topic_request(system, 'y', y_topic)])
+        inputs = read_fields(bag, FieldRequest(absolute_topic(u_topic), settings.type,
+                                               FIELD_MESSAGE_TYPES[settings.type],
+                                               tuple(settings.fields)))
     else:
         outputs, inputs = read_topics(bag, [topic_request(system, 'y', y_topic),
                                             topic_request(system, 'u', u_topic)])
+    return replay_data(bag, system, outputs, inputs, use_log_time, y_topic, u_topic)
+
+
+def replay_data(bag, system: Configuration, outputs: TopicData, inputs: TopicData,
+                use_log_time: bool = False, y_topic: str = 'y',
+                u_topic: str = 'u') -> ReplayResult:
+    """
+    Run the observer of ``system`` over measurements and inputs already read from ``bag``.
+
+    The second half of :func:`replay_bag` (without measurement sources), for readers of
+    other topics: ``tune_kalman --inputs/--outputs`` reads them by field path
+    (:func:`observer_ros.bags.signals.read_signals`). The stamps are checked for one time
+    base (:func:`check_time_bases`) unless ``use_log_time``, which stamps both with their
+    log times.
+    """
     setup = system.observer
     max_gap_ns, input_stamped = setup.max_gap_ns, setup.input_stamped
     if use_log_time:

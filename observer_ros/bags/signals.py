@@ -34,6 +34,10 @@ from observer_ros.config.schema import FIELD_MESSAGE_TYPES
 from observer_ros.ros.cdr import (
     DecodeError, field_names, FieldPathError, FieldReader, MESSAGE_TYPES)
 
+#: Sample intervals may differ from the median by this fraction (identification and ALS
+#: take one sample period; more needs resampling).
+PERIOD_TOLERANCE = 0.02
+
 
 @dataclass(frozen=True)
 class SignalSpec:
@@ -151,4 +155,4 @@ def read_signals(bag, specs: Sequence[SignalSpec]) -> list:
              else read_fields(bag, request)) for request in requests]
 
 
-__all__ = ['FieldRequest', 'SignalSpec', 'read_fields', 'read_signals']
+__all__ = ['FieldRequest', 'PERIOD_TOLERANCE', 'SignalSpec', 'read_fields', 'read_signals']

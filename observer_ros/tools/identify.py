@@ -37,8 +37,8 @@ from observer_ros.app.parallel import add_worker_arguments, single_threaded_blas
 from observer_ros.app.run_report import fit_figure, HtmlReport, singular_values_figure
 from observer_ros.bags.filter_config import model_document, write_validated
 from observer_ros.bags.identification import HOLDOUT, Identification, identify_bags, SignalSpec
+from observer_ros.bags.signals import PERIOD_TOLERANCE
 from observer_ros.bags.storage import TopicRequest
-from observer_ros.bags.tuning import PERIOD_TOLERANCE
 from observer_ros.config.schema import INPUT_MESSAGE_TYPES
 from observer_ros.core.tuning.subspace import order_advice
 from observer_ros.signals import stops_on_signal
@@ -189,6 +189,9 @@ def main(args=None) -> int:
                         help='resample unevenly sampled recordings onto a uniform grid of RATE '
                         'Hz, or auto (the median measurement interval): inputs zero-order '
                         'held, outputs linearly interpolated')
+    parser.add_argument('--feedthrough', action='store_true',
+                        help='fit D as well (default D = 0: the runtime estimators refuse a '
+                        'direct feedthrough, so such a model is for the design tools only)')
     parser.add_argument('-o', '--output', metavar='FILE', help='write the model parameter file')
     parser.add_argument('--report', metavar='DIR', help='write DIR/identify.html')
     add_worker_arguments(parser, 'read')
@@ -204,7 +207,7 @@ def _run(options) -> int:
         with task_mapper(options.workers, options.dask) as mapper:
             result = identify_bags(bags, inputs, outputs, options.order, mapper, options.holdout,
                                    options.horizon, options.continuous, options.use_log_time,
-                                   options.resample)
+                                   options.resample, options.feedthrough)
         return result, summary(result, options.order)
 
     return run_tool(

@@ -16,7 +16,7 @@
 
 from pathlib import Path
 import sys
-from typing import Callable
+from typing import Callable, Optional
 
 from observer_ros.bags.collection import expand_bags
 from observer_ros.bags.replay_outputs import check_writable_parent
@@ -49,29 +49,50 @@ def checked_bags(options) -> list:
     return expand_bags(options.bags)
 
 
+#: Exit status of an error (one line on stderr, nothing written).
+ERROR_STATUS = 2
+
+
 def run_tool(tool: str, options, compute: Callable[[list], tuple],
-             write_output: Callable, output_label: str, write_report: Callable) -> int:
+             write_output: Callable, output_label: str, write_report: Callable,
+             failed_checks: Optional[Callable[[object], list]] = None,
+             accept_option: str = '', failed_status: int = ERROR_STATUS) -> int:
     """
     Run a bag tool: check its outputs, compute, write; one error line and status 2 on failure.
 
     ``compute(bags)`` returns ``(result, text)``; ``write_output(result, text)`` writes
     ``options.output`` (inside the error handling: a refused file is an error, not a crash);
-    ``write_report(result, text)`` writes the report and returns its path.
+    ``write_report(result, text)`` writes the report and returns its path. An error with an
+    ``exit_status`` attribute exits with that status instead of 2.
+
+    ``failed_checks(result)`` lists the tool's own checks that the result failed: then
+    ``options.output`` is not written, a line on stderr says so and the tool exits with
+    ``failed_status``, unless the option ``accept_option`` (``--accept-failed-checks``) was
+    given. The report is written either way.
     """
     try:
         bags = checked_bags(options)
         result, text = compute(bags)
-        if options.output:
+        failed = failed_checks(result) if failed_checks else []
+        accepted = bool(accept_option) and getattr(
+            options, accept_option.lstrip('-').replace('-', '_'))
+        refused = bool(failed) and not accepted
+        if options.output and not refused:
             write_output(result, text)
     except (BagError, ConfigError, DesignError, ValueError, OSError) as e:
         print(f'{tool}: error: {e}', file=sys.stderr)
-        return 2
+        return getattr(e, 'exit_status', ERROR_STATUS)
     print(text)
     if options.output:
-        print(f'{output_label}: {options.output}')
+        print(f'{output_label}: {options.output}' if not refused else
+              f'{output_label}: not written ({accept_option} writes it anyway)')
     if options.report:
         print(f'report: {write_report(result, text)}')
+    if refused:
+        print(f'{tool}: failed its checks (exit status {failed_status}): '
+              + '; '.join(failed), file=sys.stderr)
+        return failed_status
     return 0
 
 
-__all__ = ['check_file', 'check_report_directory', 'checked_bags', 'run_tool']
+__all__ = ['ERROR_STATUS', 'check_file', 'check_report_directory', 'checked_bags', 'run_tool']
