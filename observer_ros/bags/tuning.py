@@ -217,9 +217,9 @@ def _width(option: str, specs, requests, found: int, wanted: int, names) -> None
     if found != wanted:
         read = ', '.join(name for request in requests for name in request.names)
         raise ConfigError(option, f'{", ".join(spec_text(spec) for spec in specs)} gives '
-                          f'{found} values ({read}); the model has {wanted} '
-                          f'({", ".join(names)}): name one field per model entry, in model '
-                          f'order')
+                          f'{found} value{"" if found == 1 else "s"} ({read}); the model has '
+                          f'{wanted} ({", ".join(names)}): name one field per model entry, in '
+                          f'model order')
 
 
 def spec_text(spec: SignalSpec) -> str:
