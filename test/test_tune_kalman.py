@@ -294,6 +294,15 @@ def test_odometry_and_twist_topics_are_read_by_field_path_like_joint_states(tmp_
     assert 'checks passed' in out
     for found, expected in zip(_noises(robot, COUPLED), _noises(joint, COUPLED)):
         np.testing.assert_allclose(found, expected, rtol=1e-9, atol=1e-15)
+    # A file whose u is a twist read by field path (as identify writes it) needs no --inputs.
+    twist = COUPLED.parameters(process_noise=COUPLED.process_noise * 10)
+    twist['/**']['ros__parameters']['topics'] = {'u': {'type': 'twist', 'fields': ['linear.x']}}
+    (tmp_path / 'twist.yaml').write_text(yaml.safe_dump(twist))
+    assert main([str(tmp_path / 'robot'), str(tmp_path / 'twist.yaml'), '-o', str(robot),
+                 '--process-structure', 'full', '--u-topic', '/cmd_vel', *fields[2:]]) == 0
+    capsys.readouterr()
+    for found, expected in zip(_noises(robot, COUPLED), _noises(joint, COUPLED)):
+        np.testing.assert_allclose(found, expected, rtol=1e-9, atol=1e-15)
     # What cannot work is refused, naming the option and what would.
     _refused([str(tmp_path / 'robot'), guess, *fields[:2], '--outputs',
               '/odom:twist.twist.linear.x'], capsys, '--outputs: /odom:twist.twist.linear.x '

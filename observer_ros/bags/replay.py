@@ -246,6 +246,35 @@ def reference_rmse(result: 'ReplayResult', reference: StateReference,
     return float(np.sqrt(np.mean((truth - estimate) ** 2))), len(stamps)
 
 
+def replay_data(bag, system: Configuration, outputs: TopicData, inputs: TopicData,
+                use_log_time: bool = False, y_topic: str = 'y',
+                u_topic: str = 'u') -> 'ReplayResult':
+    """
+    Run the observer of ``system`` over measurements and inputs already read from ``bag``.
+
+    What :func:`replay_bag` does without measurement sources, for readers of other topics:
+    ``tune_kalman --inputs/--outputs`` reads them by field path
+    (:func:`observer_ros.bags.signals.read_signals`). The stamps are checked for one time
+    base (:func:`check_time_bases`) unless ``use_log_time``, which stamps both with their
+    log times.
+    """
+    setup = system.observer
+    max_gap_ns, input_stamped = setup.max_gap_ns, setup.input_stamped
+    if use_log_time:
+        outputs, inputs, input_stamped = log_timed(outputs), log_timed(inputs), False
+    else:
+        check_time_bases(outputs, inputs, max_gap_ns, str(bag), absolute_topic(y_topic),
+                         absolute_topic(u_topic))
+    stream = setup.make_stream()
+    stream.input_stamped = input_stamped
+    result = stream.replay(inputs.stamps_ns, inputs.values, outputs.stamps_ns, outputs.values,
+                           inputs.log_times_ns, outputs.log_times_ns)
+    return ReplayResult(system, str(bag), result.stamps_ns, result.estimates,
+                        result.innovations, outputs, inputs, dict(stream.counters),
+                        use_log_time, result.covariances, result.innovation_covariances,
+                        result.nis)
+
+
 def load_system(parameters: Union[str, os.PathLike, Configuration]) -> Configuration:
     """
     Return the validated system of a parameter file (or ``parameters`` itself).
@@ -410,36 +439,14 @@ def replay_bag(bag: Union[str, os.PathLike],
 
     """
     system = load_system(parameters)
-    if system.observer.sources is not None:
+    if system.observer.sources is not None or system.topics['u'].fields:
         return _replay_sources(bag, system, u_topic, use_log_time)
     if system.model.n_inputs == 0:  # no inputs: the measurements alone
         (outputs,) = read_topics(bag, [topic_request(system, 'y', y_topic)])
         inputs = TopicData(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 0)))
-    elif system.topics['u'].fields:  # u by field path (a /cmd_vel Twist), y a vector
-        from observer_ros.bags.signals import FieldRequest, read_fields
-        settings = system.topics['u']
-        (outputs,) = read_topics(bag, [topic_request(system, 'y', y_topic)])
-        inputs = read_fields(bag, FieldRequest(absolute_topic(u_topic), settings.type,
-                                               FIELD_MESSAGE_TYPES[settings.type],
-                                               tuple(settings.fields)))
     else:
         outputs, inputs = read_topics(bag, [topic_request(system, 'y', y_topic),
                                             topic_request(system, 'u', u_topic)])
-    return replay_data(bag, system, outputs, inputs, use_log_time, y_topic, u_topic)
-
-
-def replay_data(bag, system: Configuration, outputs: TopicData, inputs: TopicData,
-                use_log_time: bool = False, y_topic: str = 'y',
-                u_topic: str = 'u') -> ReplayResult:
-    """
-    Run the observer of ``system`` over measurements and inputs already read from ``bag``.
-
-    The second half of :func:`replay_bag` (without measurement sources), for readers of
-    other topics: ``tune_kalman --inputs/--outputs`` reads them by field path
-    (:func:`observer_ros.bags.signals.read_signals`). The stamps are checked for one time
-    base (:func:`check_time_bases`) unless ``use_log_time``, which stamps both with their
-    log times.
-    """
     setup = system.observer
     max_gap_ns, input_stamped = setup.max_gap_ns, setup.input_stamped
     if use_log_time:

@@ -305,7 +305,7 @@ def bag_innovations(bag: str, parameters: dict, y_topic: str = 'y', u_topic: str
     """
     system = system_of(parameters)
     choice = choice or SignalChoice()
-    if choice.reads_specs:
+    if choice.reads_specs or system.topics['u'].fields:  # a twist u: by its field paths
         outputs, inputs = chosen_data(bag, system, choice, y_topic, u_topic)
         result = replay_data(bag, system, outputs, inputs, choice.use_log_time,
                              choice.outputs[0].topic if choice.outputs else y_topic,

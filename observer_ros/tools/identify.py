@@ -189,9 +189,6 @@ def main(args=None) -> int:
                         help='resample unevenly sampled recordings onto a uniform grid of RATE '
                         'Hz, or auto (the median measurement interval): inputs zero-order '
                         'held, outputs linearly interpolated')
-    parser.add_argument('--feedthrough', action='store_true',
-                        help='fit D as well (default D = 0: the runtime estimators refuse a '
-                        'direct feedthrough, so such a model is for the design tools only)')
     parser.add_argument('-o', '--output', metavar='FILE', help='write the model parameter file')
     parser.add_argument('--report', metavar='DIR', help='write DIR/identify.html')
     add_worker_arguments(parser, 'read')
@@ -207,7 +204,7 @@ def _run(options) -> int:
         with task_mapper(options.workers, options.dask) as mapper:
             result = identify_bags(bags, inputs, outputs, options.order, mapper, options.holdout,
                                    options.horizon, options.continuous, options.use_log_time,
-                                   options.resample, options.feedthrough)
+                                   options.resample)
         return result, summary(result, options.order)
 
     return run_tool(

@@ -228,8 +228,7 @@ def subspace_singular_values(records: Sequence[Record], horizon: int) -> tuple:
 
 def identify_subspace(records: Sequence[Record], order: int, dt: float,
                       horizon: Optional[int] = None,
-                      input_names: Optional[Sequence[str]] = None,
-                      feedthrough: bool = True) -> SubspaceModel:
+                      input_names: Optional[Sequence[str]] = None) -> SubspaceModel:
     """
     Identify a discrete model of ``order`` from ``records`` (PO-MOESP, then least squares).
 
@@ -247,9 +246,6 @@ def identify_subspace(records: Sequence[Record], order: int, dt: float,
         continuous poles came within 0.3 % with 20 rows, 2 to 4 % with 10.
     input_names : sequence of str, optional
         For the no-excitation message.
-    feedthrough : bool
-        Fit ``D`` (the default); ``False`` fixes ``D = 0``, as the runtime estimators need
-        (a sampled loop has no direct feedthrough).
 
     Returns
     -------
@@ -305,7 +301,7 @@ def identify_subspace(records: Sequence[Record], order: int, dt: float,
             f'cannot give. Identify from open-loop data that excite the plant (in a closed '
             f'loop the input follows the noise and biases the subspace estimate), try another '
             f'order, or stabilise the plant first', 'order')
-    b, d, initial = _input_matrices(a, c, records, feedthrough)
+    b, d, initial = _input_matrices(a, c, records)
     return SubspaceModel(a, b, c, d, float(dt), values, tuple(initial), horizon)
 
 
@@ -334,29 +330,28 @@ def _input_responses(a, c, inputs) -> np.ndarray:
     return np.einsum('pi,kij->kpj', c, states)
 
 
-def _input_matrices(a, c, records, feedthrough: bool = True) -> tuple:
-    """Least squares for ``B``, ``D`` (zero without ``feedthrough``) and initial states."""
+def _input_matrices(a, c, records) -> tuple:
+    """Least squares for ``B``, ``D`` and one initial state per record."""
     n_states, n_outputs = len(a), c.shape[0]
     n_inputs = records[0].inputs.shape[1]
     n_initial = n_states * len(records)
-    n_direct = n_outputs * n_inputs if feedthrough else 0
-    width = n_states * n_inputs + n_direct + n_initial
+    width = n_states * n_inputs + n_outputs * n_inputs + n_initial
     rows, targets = [], []
     for index, record in enumerate(records):
         count = len(record.inputs)
         block = np.zeros((count, n_outputs, width))
         block[:, :, :n_states * n_inputs] = _input_responses(a, c, record.inputs)
-        for j in range(n_inputs if feedthrough else 0):
+        for j in range(n_inputs):
             for i in range(n_outputs):
                 block[:, i, n_states * n_inputs + i * n_inputs + j] = record.inputs[:, j]
-        start = n_states * n_inputs + n_direct + index * n_states
+        start = n_states * n_inputs + n_outputs * n_inputs + index * n_states
         block[:, :, start:start + n_states] = _free_responses(a, c, count)
         rows.append(block.reshape(-1, width))
         targets.append(record.outputs.reshape(-1))
     solution = np.linalg.lstsq(np.vstack(rows), np.concatenate(targets), rcond=None)[0]
     b = solution[:n_states * n_inputs].reshape(n_inputs, n_states).T
-    d = (solution[n_states * n_inputs:n_states * n_inputs + n_direct].reshape(
-        n_outputs, n_inputs) if feedthrough else np.zeros((n_outputs, n_inputs)))
+    d = solution[n_states * n_inputs:n_states * n_inputs + n_outputs * n_inputs].reshape(
+        n_outputs, n_inputs)
     initial = [solution[width - n_initial + k * n_states:width - n_initial + (k + 1) * n_states]
                for k in range(len(records))]
     return b, d, initial
