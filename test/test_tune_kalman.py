@@ -372,10 +372,13 @@ def test_failed_checks_exit_3_and_write_nothing_unless_accepted(tmp_path, capsys
     assert summary['failed_checks'] and 'NOT white' in summary['failed_checks'][0]
     assert main(args + ['--accept-failed-checks']) == 0
     assert 'FAILED check: the innovations' in output.read_text()  # said in the file too
-    capsys.readouterr()
+
+
+def test_a_zero_q_is_a_failed_check_that_says_so_and_what_to_do(tmp_path, capsys):
+    output = tmp_path / 'tuned.yaml'
+    COUPLED.write_bag(tmp_path / 'run', 20_000, seed=23)
     # Every entry of Q known zero on a stable plant: the filter runs, but Q is zero.
     known = ['--known', 'Q[x1,x1]=0', '--known', 'Q[x2,x2]=0']
-    output.unlink()
     assert main([str(tmp_path / 'run'), COUPLED.write_parameters(tmp_path / 'right.yaml'),
                  '-o', str(output), *known]) == 3
     out = capsys.readouterr().out
