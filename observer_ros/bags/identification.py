@@ -56,6 +56,10 @@ HOLDOUT = 0.3
 #: ``resample='auto'``: the grid period is the median measurement interval.
 AUTO = 'auto'
 
+#: Resampling interpolates across measurement gaps up to this many grid periods (or median
+#: measurement intervals, if longer); a longer gap starts a new record.
+RESAMPLE_GAP_PERIODS = 3
+
 
 def resample_period(rate: Union[None, str, float], median_ns: int) -> Optional[int]:
     """
@@ -92,7 +96,7 @@ class Resampling:
     raw_samples, samples : int
         Measurements paired with an input, and grid points made from them.
     raw_median_ns, raw_min_ns, raw_max_ns : int
-        The measured intervals within records.
+        The measured intervals within the grid's records.
     uneven : int
         Measured intervals off the median by more than ``PERIOD_TOLERANCE``.
     interpolation_rms : numpy.ndarray, shape (p,)
@@ -100,6 +104,9 @@ class Resampling:
         what the grid loses of each output (0 when it holds every measurement).
     output_rms : numpy.ndarray, shape (p,)
         RMS of each output about its mean, to judge the error against.
+    records : int
+        Stretches of grid: a measurement gap longer than :data:`RESAMPLE_GAP_PERIODS`
+        periods starts a new one.
 
     """
 
@@ -112,6 +119,7 @@ class Resampling:
     uneven: int
     interpolation_rms: np.ndarray
     output_rms: np.ndarray
+    records: int = 1
 
 
 @dataclass(frozen=True)
@@ -157,9 +165,12 @@ def resample(signals: BagSignals, histories: Sequence[InputHistory],
     """
     Put each record of ``signals`` onto a uniform grid of ``period_ns``.
 
-    Each record's grid starts at its first measurement and ends at or before its last.
-    The inputs are zero-order held: at each grid time, the latest input stamped at or before
-    it (``histories``, one per input topic, as the pairing rule holds them). The outputs are
+    A record here ends at a measurement gap longer than :data:`RESAMPLE_GAP_PERIODS` grid
+    periods (or median measurement intervals, whichever is longer): shorter gaps, the
+    jitter of a simulator's or a recorder's clock, are interpolated across. Each record's
+    grid starts at its first measurement and ends at or before its last. The inputs are
+    zero-order held: at each grid time, the latest input stamped at or before it
+    (``histories``, one per input topic, as the pairing rule holds them). The outputs are
     linearly interpolated between the measurements around it (no anti-alias filter: a grid
     coarser than the measurements drops what lies between its points).
 
@@ -170,40 +181,44 @@ def resample(signals: BagSignals, histories: Sequence[InputHistory],
 
     """
     stamps, outputs = signals.stamps_ns, signals.outputs
-    grids, values, starts, back, measured = [], [], [], [], []
-    for times, record in signals.records():
+    steps = np.diff(stamps)
+    median = int(np.median(steps))
+    gap_ns = RESAMPLE_GAP_PERIODS * max(int(period_ns), median)
+    starts = np.concatenate([[0], np.nonzero(steps > gap_ns)[0] + 1]).astype(np.int64)
+    ends = list(starts[1:]) + [len(stamps)]
+    grids, values, grid_starts, back, measured = [], [], [], [], []
+    for a, b in zip(starts, ends):
+        times, record = stamps[a:b], outputs[a:b]
         grid = times[0] + period_ns * np.arange((times[-1] - times[0]) // period_ns + 1,
                                                 dtype=np.int64)
         if len(grid) < 2:
             continue
-        starts.append(sum(len(g) for g in grids))
+        grid_starts.append(sum(len(g) for g in grids))
         grids.append(grid)
         relative = (times - times[0]).astype(float)
         points = (grid - times[0]).astype(float)
-        y = np.column_stack([np.interp(points, relative, column)
-                             for column in record.outputs.T])
+        y = np.column_stack([np.interp(points, relative, column) for column in record.T])
         values.append(y)
         inner = relative <= points[-1]
         back.append(np.column_stack([np.interp(relative[inner], points, column)
                                      for column in y.T]))
-        measured.append(record.outputs[inner])
+        measured.append(record[inner])
     if not grids:
         raise BagError(f'{signals.bag}: no record spans two periods of the '
                        f'{period_ns / 1e6:g} ms grid; resample at a higher rate')
     grid = np.concatenate(grids)
     columns = [np.array(history.values)[history.indices_at(grid)] for history in histories]
     u = np.hstack(columns) if columns else np.zeros((len(grid), 0))
-    steps = np.diff(stamps)
-    inside = steps[_inside(steps, signals.starts)]
-    median = int(np.median(inside)) if len(inside) else int(period_ns)
+    inside = steps[_inside(steps, starts)]
     error = np.concatenate(measured) - np.concatenate(back)
     note = Resampling(int(period_ns), len(stamps), len(grid), median,
                       int(inside.min()) if len(inside) else median,
                       int(inside.max()) if len(inside) else median,
                       int((np.abs(inside - median) > PERIOD_TOLERANCE * median).sum()),
-                      np.sqrt(np.mean(error ** 2, axis=0)), np.std(outputs, axis=0))
+                      np.sqrt(np.mean(error ** 2, axis=0)), np.std(outputs, axis=0),
+                      len(grids))
     return replace(signals, stamps_ns=grid, inputs=u, outputs=np.concatenate(values),
-                   starts=np.array(starts, dtype=np.int64), period_ns=int(period_ns),
+                   starts=np.array(grid_starts, dtype=np.int64), period_ns=int(period_ns),
                    resampling=note, raw=signals)
 
 
@@ -307,7 +322,8 @@ def _common_period(signals: Sequence[BagSignals]) -> int:
     for item in signals:
         if abs(item.period_ns - period) > PERIOD_TOLERANCE * period:
             raise BagError(f'{item.bag}: sampled every {item.period_ns / 1e6:g} ms, the other '
-                           f'bags every {period / 1e6:g} ms; identify from bags of one rate')
+                           f'bags every {period / 1e6:g} ms; identify from bags of one rate, '
+                           f'or resample them onto one grid (--resample RATE in Hz)')
     return period
 
 
@@ -387,5 +403,5 @@ def identify_bags(bags: Sequence[str], inputs: Sequence[SignalSpec],
 
 
 __all__ = ['AUTO', 'BagSignals', 'FieldRequest', 'GAP_PERIODS', 'HOLDOUT', 'Identification',
-           'Resampling', 'SignalSpec', 'bag_signals', 'identify_bags', 'read_fields',
-           'resample', 'resample_period']
+           'RESAMPLE_GAP_PERIODS', 'Resampling', 'SignalSpec', 'bag_signals', 'identify_bags',
+           'read_fields', 'resample', 'resample_period']

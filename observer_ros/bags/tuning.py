@@ -231,7 +231,10 @@ def spec_text(spec: SignalSpec) -> str:
 
 def chosen_data(bag: str, system, choice: SignalChoice, y_topic: str, u_topic: str) -> tuple:
     """
-    Read ``(outputs, inputs)`` of one bag as ``choice`` says, for :func:`replay_data`.
+    Read ``(outputs, inputs, breaks)`` of one bag as ``choice`` says, for :func:`replay_data`.
+
+    ``breaks`` are the stamps that start a stretch of the resampled grid (each one a
+    segment of its own, as after a gap; empty without resampling).
 
     Raises
     ------
@@ -262,7 +265,7 @@ def chosen_data(bag: str, system, choice: SignalChoice, y_topic: str, u_topic: s
                model.n_outputs, model.output_names)
         stamps = paired.stamps_ns  # each held input stamped at its grid point
         return (TopicData(stamps, stamps, paired.outputs),
-                TopicData(stamps, stamps, paired.inputs))
+                TopicData(stamps, stamps, paired.inputs), stamps[paired.starts])
     read = read_signals(bag, (*inputs, *outputs))
     input_read, output_read = read[:len(inputs)], read[len(inputs):]
     first_request, first = output_read[0]
@@ -278,13 +281,13 @@ def chosen_data(bag: str, system, choice: SignalChoice, y_topic: str, u_topic: s
     _width('--outputs', outputs, [r for r, _ in output_read], values.shape[1],
            model.n_outputs, model.output_names)
     output_data = TopicData(first.stamps_ns, first.log_times_ns, values)
+    none = np.zeros(0, np.int64)
     if not inputs:
-        return output_data, TopicData(np.zeros(0, np.int64), np.zeros(0, np.int64),
-                                      np.zeros((0, 0)))
+        return output_data, TopicData(none, none, np.zeros((0, 0))), none
     request, input_data = input_read[0]
     _width('--inputs', inputs, [request], input_data.values.shape[1], model.n_inputs,
            model.input_names)
-    return output_data, input_data
+    return output_data, input_data, none
 
 
 def bag_innovations(bag: str, parameters: dict, y_topic: str = 'y', u_topic: str = 'u',
@@ -306,11 +309,12 @@ def bag_innovations(bag: str, parameters: dict, y_topic: str = 'y', u_topic: str
     system = system_of(parameters)
     choice = choice or SignalChoice()
     if choice.reads_specs or system.topics['u'].fields:  # a twist u: by its field paths
-        outputs, inputs = chosen_data(bag, system, choice, y_topic, u_topic)
+        outputs, inputs, breaks = chosen_data(bag, system, choice, y_topic, u_topic)
         result = replay_data(bag, system, outputs, inputs, choice.use_log_time,
                              choice.outputs[0].topic if choice.outputs else y_topic,
                              choice.inputs[0].topic if choice.inputs else u_topic)
     else:
+        breaks = np.zeros(0, np.int64)
         result = replay_bag(bag, system, y_topic, u_topic, choice.use_log_time)
     _finite(bag, f'topic {y_topic}', result.outputs.values, result.outputs.stamps_ns)
     if len(result.inputs.values):
@@ -319,6 +323,8 @@ def bag_innovations(bag: str, parameters: dict, y_topic: str = 'y', u_topic: str
         raise BagError(f'{bag}: {len(result.stamps_ns)} estimates; too short to tune from')
     max_gap_ns = system.observer.max_gap_ns
     starts = segment_starts(result.stamps_ns, max_gap_ns)
+    if len(breaks):  # each stretch of a resampled grid is a segment of its own
+        starts = np.union1d(starts, np.nonzero(np.isin(result.stamps_ns, breaks))[0])
     steps = np.diff(result.stamps_ns)
     inside = np.ones(len(steps), dtype=bool)
     inside[starts[1:] - 1] = False

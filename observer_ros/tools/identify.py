@@ -105,9 +105,10 @@ def _resampling_lines(result: Identification) -> list:
                      f'{note.raw_min_ns / 1e6:g} .. {note.raw_max_ns / 1e6:g} ms, median '
                      f'{note.raw_median_ns / 1e6:g} ms, {note.uneven} off it by more than '
                      f'{PERIOD_TOLERANCE:.0%}) onto {note.samples} points every '
-                     f'{note.period_ns / 1e6:g} ms (inputs zero-order held, outputs linearly '
-                     f'interpolated); grid interpolated back at the measured stamps: RMS error '
-                     f'{errors}')
+                     f'{note.period_ns / 1e6:g} ms in {note.records} stretch'
+                     f'{"" if note.records == 1 else "es"} (inputs zero-order held, outputs '
+                     f'linearly interpolated); grid interpolated back at the measured stamps: '
+                     f'RMS error {errors}')
     if result.raw_fit is not None:
         fits = ', '.join(f'{name} {fit:.2f}%' for name, fit in zip(names, result.raw_fit))
         lines.append(f'fit of the raw samples taken as evenly spaced (not resampled): {fits}')
