@@ -208,6 +208,8 @@ def test_jittered_sampling_is_resampled_onto_a_uniform_grid(tmp_path, capsys):
     assert errors.max() < 0.05 and fit > 90.0 and raw < fit - 10.0
     assert main([bag, '--order', '3', '--resample', '40']) == 0
     assert 'every 25 ms' in capsys.readouterr().out
+    assert main([bag, '--order', '3', '--resample', '0']) == 2
+    assert "--resample: expected a rate in Hz (> 0) or auto, got '0'" in capsys.readouterr().err
     assert main([bag, '--order', '3', '--resample', 'fast']) == 2
     assert "--resample: expected a rate in Hz (> 0) or auto, got 'fast'" in \
         capsys.readouterr().err

@@ -217,6 +217,8 @@ def test_bad_input_is_a_clear_error_and_nothing_is_written(tmp_path, capsys):
     _refused([str(tmp_path / 'nan'), params, *written, '--known', 'Q[x9,x1]=0'], capsys,
              "--known: 'x9'")
     _refused([str(tmp_path / 'missing'), params], capsys, 'not a readable rosbag2 bag')
+    _refused([str(tmp_path / 'nan'), params, '--resample', '-5'], capsys,
+             "--resample: expected a rate in Hz (> 0) or auto, got '-5'")
     luenberger = yaml.safe_load(open(params))
     luenberger['/**']['ros__parameters']['observer'] = {'type': 'full_order',
                                                         'poles': [0.5, 0.6]}
@@ -225,7 +227,8 @@ def test_bad_input_is_a_clear_error_and_nothing_is_written(tmp_path, capsys):
              'observer.type: tune_kalman tunes a Kalman filter')
     # A filter of measurement sources: its partial updates do not give one ALS model.
     _refused([str(tmp_path / 'nan'), str(CONFIG_DIR / 'wheeled_base_sources.yaml')], capsys,
-             'observer.sources: tune_kalman tunes a filter updated with every output')
+             'observer.sources: tune_kalman tunes a filter updated with every output',
+             'give the outputs with tune_kalman --outputs TOPIC:PATH[,PATH...]')
     assert not output.exists() and not output.parent.exists() and not report.exists()
 
 

@@ -23,6 +23,13 @@ prints the estimates, the entries the data cannot identify, and the NIS and whit
 and after. ``-o`` writes PARAMS with the tuned noises (validated first; the summary as
 comments on top); ``--report DIR`` writes ``DIR/tune_kalman.html`` and
 ``DIR/tune_kalman.json``. An error prints one line, exits with status 2 and writes nothing.
+
+``--inputs``/``--outputs`` read other topics by field path, with ``identify``'s reader
+(:mod:`observer_ros.bags.signals`); ``--use-log-time`` stamps them with their log times and
+``--resample`` puts them onto a uniform grid as ``identify`` does. A tuning that fails its
+own checks (innovations not white after tuning, a zero ``Q``) says so, writes no ``-o``
+file and exits with status 3 (:data:`~observer_ros.bags.tuning.FAILED_CHECKS_STATUS`)
+unless ``--accept-failed-checks``.
 """
 
 import argparse
@@ -36,6 +43,7 @@ import numpy as np
 from observer_ros.app.parallel import add_worker_arguments, single_threaded_blas, task_mapper
 from observer_ros.app.run_report import filter_run_section, HtmlReport
 from observer_ros.bags.filter_config import load_kalman_setup
+from observer_ros.bags.identification import resample_period
 from observer_ros.bags.signals import SignalSpec
 from observer_ros.bags.tuning import (
     FAILED_CHECKS_STATUS, ITERATIONS, normalized_squares, SignalChoice, tune_noises, TuningRun)
@@ -241,6 +249,7 @@ def _run(options) -> int:
         structure = NoiseStructure.build(setup.model.n_states, setup.model.n_outputs,
                                          options.process_structure,
                                          options.measurement_structure, known)
+        resample_period(options.resample, 1)  # a bad --resample fails before any bag is read
         choice = SignalChoice(tuple(SignalSpec.parse(text) for text in options.inputs),
                               tuple(SignalSpec.parse(text) for text in options.outputs),
                               options.use_log_time, options.resample)
