@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 import yaml
 
-from bag_support import serialize, TYPES, TYPESTORE
+from bag_support import JOINT_STATE, joint_state, serialize, TYPES, TYPESTORE
 from conftest import CONFIG_DIR
 from observer_ros.bags.replay import replay_bag
 from observer_ros.bags.storage import TopicToWrite, write_bag
@@ -253,12 +253,13 @@ def _odometry(stamp_ns, speed, turn):
                                                              covariance=covariance))
 
 
-def _write_robot_like(path, u, y, stamps, jitter_ns=None):
+def _write_robot_like(path, u, y, stamps, jitter_ns=None, extra=None):
     """
     Record ``u`` as an unstamped /cmd_vel Twist and ``y`` as /odom's twist, like a robot.
 
     Each command is logged 1 us before its measurement (stamped with that log time, having
     no header); with ``jitter_ns`` the measurements are stamped and logged that far off.
+    ``extra`` (topic, joint, stamps, values) adds a JointState topic.
     """
     from rosbags.rosbag2 import Writer
     vector = TYPES['geometry_msgs/msg/Vector3']
@@ -273,6 +274,11 @@ def _write_robot_like(path, u, y, stamps, jitter_ns=None):
             writer.write(commands, int(stamps[k]) - 1000, serialize(twist))
             writer.write(odometry, int(measured[k]),
                          serialize(_odometry(int(measured[k]), *y[k])))
+        if extra is not None:
+            topic, joint, times, values = extra
+            joints = writer.add_connection(topic, JOINT_STATE, typestore=TYPESTORE)
+            for stamp, value in zip(times.tolist(), values):
+                writer.write(joints, stamp, serialize(joint_state(stamp, [joint], value)))
 
 
 def test_odometry_and_twist_topics_are_read_by_field_path_like_joint_states(tmp_path, capsys):
@@ -398,3 +404,26 @@ def test_a_zero_q_is_a_failed_check_that_says_so_and_what_to_do(tmp_path, capsys
             'zero' in error and 'not stabilizing' in error, error
         assert '--known "Q[level,level]=VALUE"' in error and 'Nothing written' in error
     assert not output.exists()
+
+
+def test_outputs_stamped_apart_are_refused_or_interpolated_onto_one_grid(tmp_path, capsys):
+    # s1 in /odom's twist, s2 a JointState stamped 2 ms later: one update per sample needs
+    # them together; --resample interpolates s2 at the stamps of s1, then onto the grid.
+    samples = 20_000
+    u, _, y = COUPLED.simulate(samples, seed=24)
+    stamps = START_NS + round(COUPLED.period * 1e9) * np.arange(samples, dtype=np.int64)
+    _write_robot_like(tmp_path / 'robot', u, np.column_stack([y[:, 0], np.zeros(samples)]),
+                      stamps, extra=('/s2', 's2', stamps + 2_000_000, y[:, 1:]))
+    guess = COUPLED.write_parameters(tmp_path / 'guess.yaml',
+                                     process_noise=COUPLED.process_noise * 10)
+    fields = ['--inputs', '/cmd_vel:linear.x', '--outputs', '/odom:twist.twist.linear.x',
+              '/s2:position:s2']
+    _refused([str(tmp_path / 'robot'), guess, *fields], capsys,
+             '--outputs: /s2 (20000 messages) is not stamped like /odom (20000)',
+             'resample them onto one grid (--resample)')
+    tuned = tmp_path / 'tuned.yaml'
+    assert main([str(tmp_path / 'robot'), guess, *fields, '--resample', 'auto', '-o',
+                 str(tuned), '--process-structure', 'full']) == 0
+    assert 'checks passed' in capsys.readouterr().out
+    q, r = _noises(tuned, COUPLED)
+    assert np.all(_relative(np.diag(q), np.diag(COUPLED.process_noise)) < ACCURACY), q

@@ -222,6 +222,19 @@ def resample(signals: BagSignals, histories: Sequence[InputHistory],
                    resampling=note, raw=signals)
 
 
+def _interpolated(bag, topic: str, data, stamps: np.ndarray) -> np.ndarray:
+    """Return ``data`` linearly interpolated at ``stamps`` (ns), column by column."""
+    order = np.argsort(data.stamps_ns, kind='stable')
+    times = data.stamps_ns[order]
+    if len(times) < 2 or (np.diff(times) <= 0).any():
+        raise BagError(f'{bag}: topic {topic}: the stamps do not increase; it cannot be '
+                       f'interpolated onto the grid')
+    origin = times[0]
+    return np.column_stack([np.interp((stamps - origin).astype(float),
+                                      (times - origin).astype(float), column)
+                            for column in data.values[order].T])
+
+
 def bag_signals(bag: str, inputs: Sequence[SignalSpec], outputs: Sequence[SignalSpec],
                 use_log_time: bool = False,
                 resample_rate: Union[None, str, float] = None) -> BagSignals:
@@ -230,7 +243,8 @@ def bag_signals(bag: str, inputs: Sequence[SignalSpec], outputs: Sequence[Signal
 
     With ``use_log_time`` every topic is stamped with its log times (the recorder's clock)
     instead of its header stamps. With ``resample_rate`` (Hz, or ``'auto'`` for the median
-    measurement interval) the records are put onto a uniform grid (:func:`resample`).
+    measurement interval) the records are put onto a uniform grid (:func:`resample`); output
+    topics stamped unlike the first are then linearly interpolated at its stamps first.
 
     Raises
     ------
@@ -254,13 +268,20 @@ def bag_signals(bag: str, inputs: Sequence[SignalSpec], outputs: Sequence[Signal
         check_time_bases(output_data[0], item, gap_ns, str(bag), requests[len(inputs)].topic,
                          request.topic,
                          'use log times for both (identify --use-log-time)')
-    for request, item in zip(requests[len(inputs) + 1:], output_data[1:]):
-        if not np.array_equal(item.stamps_ns, stamps):
-            raise BagError(f'{bag}: topic {request.topic} is not stamped like '
-                           f'{requests[len(inputs)].topic}; outputs must be sampled together')
-    y = np.hstack([item.values for item in output_data])
-    columns, histories = [], []
     keep = np.ones(len(stamps), dtype=bool)
+    values = [output_data[0].values]
+    for request, item in zip(requests[len(inputs) + 1:], output_data[1:]):
+        if np.array_equal(item.stamps_ns, stamps):
+            values.append(item.values)
+        elif resample_rate is None:
+            raise BagError(f'{bag}: topic {request.topic} is not stamped like '
+                           f'{requests[len(inputs)].topic}; outputs must be sampled together, '
+                           f'or resampled onto one grid (--resample RATE or auto)')
+        else:  # interpolated at the first output's stamps, inside its own span
+            values.append(_interpolated(bag, request.topic, item, stamps))
+            keep &= (stamps >= item.stamps_ns.min()) & (stamps <= item.stamps_ns.max())
+    y = np.hstack(values)
+    columns, histories = [], []
     for request, item in zip(requests, input_data):
         history = InputHistory()
         for stamp, value in zip(item.stamps_ns.tolist(), item.values):
