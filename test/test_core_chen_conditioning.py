@@ -210,15 +210,52 @@ def test_chen_controller_is_accurate_on_larger_plants(n_states):
         assert exact <= AGREEMENT_RTOL or mismatches, (
             f'G_oc is {exact:.2g} off the exact controller and nothing said so')
         to_exact.append(exact)
-        to_diophantine.append(response_disagreement(
-            tf, diophantine_controller(model, controller_poles, observer_poles)))
+        diophantine = diophantine_controller(model, controller_poles, observer_poles)
+        disagreement = response_disagreement(tf, diophantine)
+        to_diophantine.append(disagreement)
+        # The Diophantine solution and G_oc come from two computations, each as accurate as
+        # its conditioning allows: they may differ by a small multiple of how far one ulp of
+        # the model moves either of them (the goldens' rule, MARGIN), and at least 1e-9.
+        allowed = max(1e-9, MARGIN * conditioning_move(
+            model, k, design, controller_poles, observer_poles, tf, diophantine))
+        assert disagreement <= allowed, (disagreement, allowed)
     # Measured (seeded): medians 1e-13 to 1e-10, worst 2e-7 against the exact controller
     # (announced); the printed Diophantine solution, from the requested poles, can itself be
-    # the less accurate one (3e-7 where G_oc is exact to 1e-12).
+    # the less accurate one (3e-7 where G_oc is exact to 1e-12). Each BLAS kernel rounds it
+    # differently: its median over 6 plants of orders 8 and 9 is 1.2e-9 to 1.7e-9 with the
+    # Haswell kernel, below 1e-9 with SkylakeX, within the per-plant bound above with both.
     assert np.median(to_exact) <= 1e-9, to_exact
     assert max(to_exact) <= 1e-6, to_exact
-    assert np.median(to_diophantine) <= 1e-9, to_diophantine
     assert max(to_diophantine) <= 1e-6, to_diophantine
+
+
+#: As golden_support.MARGIN: a backward-stable computation on another machine moves its
+#: result by up to a small multiple (c n) of what one ulp of its data moves it.
+MARGIN = 32
+
+
+def conditioning_move(model, k, design, controller_poles, observer_poles, tf, diophantine):
+    """
+    How far G_oc and the Diophantine controller move when the data move by one ulp.
+
+    Every entry of ``A``, ``B``, ``C`` and ``K`` is multiplied by ``1 +- eps`` (random signs,
+    three draws); the largest response change of either computation is returned.
+    """
+    draw = np.random.default_rng(0)
+    eps = np.finfo(float).eps
+
+    def nudged(matrix):
+        return np.asarray(matrix) * (1.0 + eps * draw.choice((-1.0, 1.0), np.shape(matrix)))
+
+    move = 0.0
+    for _ in range(3):
+        other = StateSpaceModel.from_matrices(nudged(model.a), nudged(model.b),
+                                              nudged(model.c))
+        moved_tf, _ = recorded(controller_transfer_function, other, design.realization,
+                               nudged(k))
+        move = max(move, response_disagreement(moved_tf, tf), response_disagreement(
+            diophantine_controller(other, controller_poles, observer_poles), diophantine))
+    return move
 
 
 @pytest.mark.parametrize('n_states', [6, 9])

@@ -631,12 +631,16 @@ def test_mimo_step_matrices_are_exact(kind, period_ms):
     np.testing.assert_allclose(eigenvalues[rows], wanted[cols], atol=1e-9)
 
 
-def test_estimators_need_zero_feedthrough():
+def test_estimators_take_a_feedthrough():
+    # Refused before (D: the runtime estimators need D = 0); test_core_feedthrough.py
+    # checks the numbers of every type.
     rng = np.random.default_rng(0)
     model = StateSpaceModel.from_matrices(rng.standard_normal((3, 3)) - 3 * np.eye(3),
                                           np.ones((3, 1)), [[1.0, 0.0, 0.0]], [[0.5]])
-    with pytest.raises(ValueError, match='^D: '):
-        make_estimator(design_full_order(model, poles=[-4, -5, -6]))
+    estimator = make_estimator(design_full_order(model, poles=[-4, -5, -6]))
+    assert estimator.feedthrough.tolist() == [[0.5]]
+    np.testing.assert_array_equal(estimator.update(0, [1.5], [0.0], [1.0]),
+                                  [1.0, 0.0, 0.0])  # C^+ (y - D u_now)
 
 
 def test_discrete_given_gain_with_singular_a():

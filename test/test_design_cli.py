@@ -204,3 +204,32 @@ def test_a_discrete_model_without_a_plant_section_runs_at_its_own_rate(tmp_path)
     system = validate_parameters(load_parameter_file(str(path)))
     assert system.plant.rate_hz == pytest.approx(10.0)
     assert json.loads(result.stdout)['observer.type'] == 'full_order'
+
+
+@pytest.mark.parametrize('kind', ['full_order', 'reduced_order', 'chen', 'kalman'])
+def test_a_model_with_a_feedthrough_designs_and_says_so(tmp_path, kind):
+    # Exited 2 before ("D: the runtime estimators need D = 0"); the separation principle
+    # holds with D, and the Diophantine cross-check of G_oc (made with D) agrees.
+    text = (CONFIG_DIR / 'seed001_third_order.yaml').read_text()
+    text = text.replace('      C: [1.0, 0.0, 0.0]\n', '      C: [1.0, 0.0, 0.0]\n      D: [0.5]\n')
+    text = text.replace("type: 'reduced_order'", f"type: '{kind}'")
+    if kind == 'kalman':
+        text = text.replace("      poles: ['-10', '-10']\n",
+                            '      process_noise: [0.1, 0.1, 0.1]\n'
+                            '      measurement_noise: [0.01]\n')
+    elif kind == 'full_order':
+        text = text.replace("poles: ['-10', '-10']", "poles: ['-10', '-11', '-12']")
+    path = tmp_path / f'{kind}.yaml'
+    path.write_text(text)
+    result = run_cli(path)
+    assert result.returncode == 0, result.stderr
+    assert 'Feedthrough D (y = C x + D u' in result.stdout
+    summary = design_json(path)
+    assert summary['model']['feedthrough'] == [[0.5]]
+    loop = np.sort_complex(complex_list(summary['closed_loop_poles']))
+    expected = np.sort_complex(np.concatenate([complex_list(summary['feedback.poles']),
+                                               complex_list(summary['observer.poles'])]))
+    np.testing.assert_allclose(loop, expected, atol=1e-6)
+    for key in ('num', 'den'):
+        np.testing.assert_allclose(summary['controller_tf'][key],
+                                   summary['controller_tf_diophantine'][key], rtol=1e-6)

@@ -20,7 +20,10 @@ import pytest
 from observer_ros.bags.storage import TopicToWrite, write_bag
 from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.discretize import zero_order_hold
+from observer_ros.tools.design_observer import main as design_observer
 from observer_ros.tools.identify import main
+from observer_ros.tools.replay import main as replay
+from observer_ros.tools.tune_kalman import main as tune_kalman
 from tuning_support import START_NS
 
 #: The plant: poles -1.58 and -0.91 +- 2.34j, sampled at 20 Hz, position measured.
@@ -29,16 +32,23 @@ B = np.array([[0.0], [0.0], [10.0]])
 PERIOD, SAMPLES, SNR_DB = 0.05, 20_000, 30.0
 
 
-def write_third_order(path, samples=SAMPLES, seed=1, inputs=None, nan_at=None):
-    """Record ``u`` (white) and ``y`` (position plus noise at 30 dB) as JointStates."""
+def write_third_order(path, samples=SAMPLES, seed=1, inputs=None, nan_at=None,
+                      feedthrough=None):
+    """
+    Record ``u`` (white) and ``y`` (position plus noise at 30 dB) as JointStates.
+
+    ``feedthrough``: ``D``, ``y[k] = x1[k] + D u[k]`` with ``u[k]`` stamped with ``y[k]`` (the
+    input applied at that sample). Returns the standard deviation of the noise.
+    """
     ad, bd = zero_order_hold(A, B, PERIOD)
     rng = np.random.default_rng(seed)
     u = rng.standard_normal((samples, 1)) if inputs is None else inputs
     x, y = np.zeros(3), np.empty((samples, 1))
     for k in range(samples):
-        y[k] = x[0]
+        y[k] = x[0] if feedthrough is None else x[0] + feedthrough * u[k, 0]
         x = ad @ x + bd @ u[k]
-    y += rng.standard_normal(y.shape) * y.std() * 10 ** (-SNR_DB / 20)
+    noise = y.std() * 10 ** (-SNR_DB / 20)
+    y += rng.standard_normal(y.shape) * noise
     if nan_at is not None:
         y[nan_at] = np.nan
     stamps = START_NS + round(PERIOD * 1e9) * np.arange(samples, dtype=np.int64)
@@ -46,6 +56,7 @@ def write_third_order(path, samples=SAMPLES, seed=1, inputs=None, nan_at=None):
                                   stamps - 1000, u),
                      TopicToWrite('/y', 'joint_state', 'position', ['position'], stamps,
                                   stamps, y)])
+    return noise
 
 
 @pytest.fixture(scope='module')
@@ -213,3 +224,68 @@ def test_jittered_sampling_is_resampled_onto_a_uniform_grid(tmp_path, capsys):
     assert main([bag, '--order', '3', '--resample', 'fast']) == 2
     assert "--resample: expected a rate in Hz (> 0) or auto, got 'fast'" in \
         capsys.readouterr().err
+
+
+def innovation_rms(csv_path, skip: int) -> float:
+    """RMS of the innovation column of a replay CSV after ``skip`` rows."""
+    with open(csv_path, encoding='utf-8') as stream:
+        header = stream.readline().strip().split(',')
+    column = next(i for i, name in enumerate(header) if name.startswith('innovation'))
+    innovation = np.loadtxt(csv_path, delimiter=',', skiprows=1, usecols=column)
+    return float(np.sqrt(np.mean(innovation[skip:] ** 2)))
+
+
+def test_a_feedthrough_identified_runs_in_design_observer_and_replay(tmp_path, capsys):
+    # D = 0.8 from the input to the position: identify --feedthrough fit finds it, and the
+    # file it writes runs in design_observer and replay as written (both exited 2 before:
+    # "D: the runtime estimators need D = 0").
+    bag, samples = tmp_path / 'direct', 8000
+    noise = write_third_order(bag, samples, feedthrough=0.8)
+    fitted, zero = tmp_path / 'fit.yaml', tmp_path / 'zero.yaml'
+    assert main([str(bag), '--order', '3', '--feedthrough', 'fit', '-o', str(fitted)]) == 0
+    fit = float(capsys.readouterr().out.split('held-out data: position ')[1].split('%')[0])
+    d = load_parameter_file(str(fitted))['model.D']
+    assert main([str(bag), '--order', '3', '--feedthrough', 'zero', '-o', str(zero)]) == 0
+    fit_zero = float(capsys.readouterr().out.split('held-out data: position ')[1].split('%')[0])
+    assert load_parameter_file(str(zero))['model.D'] == [0.0]
+    assert design_observer([str(fitted)]) == 0
+    assert 'Observer: kalman' in capsys.readouterr().out
+    rms = {}
+    for name, params in (('fit', fitted), ('zero', zero)):
+        csv = tmp_path / f'{name}.csv'
+        assert replay([str(bag), str(params), '--csv', str(csv)]) == 0
+        assert f'replayed {samples} measurements into {samples} estimates' in (
+            capsys.readouterr().out)
+        rms[name] = innovation_rms(csv, samples // 2)
+    print(f'D fitted {d[0]:.4f} (true 0.8), fit {fit:.2f}% (D fixed at zero: {fit_zero:.2f}%); '
+          f'innovation RMS over the second half {rms["fit"]:.4g} (noise {noise:.4g}), '
+          f'{rms["zero"]:.4g} with D = 0')
+    assert abs(d[0] - 0.8) < 0.01 and fit > 95.0 and fit_zero < 50.0
+    # The estimates converge: what is left of the innovation is the measurement noise.
+    assert rms['fit'] < 1.2 * noise and rms['zero'] > 3 * rms['fit']
+    # tune_kalman takes the file too (it exited 2 before), and finds R = the noise variance.
+    tuned = tmp_path / 'tuned.yaml'
+    assert tune_kalman([str(bag), str(fitted), '-o', str(tuned)]) == 0
+    capsys.readouterr()
+    r = load_parameter_file(str(tuned))['observer.measurement_noise'][0]
+    print(f'tune_kalman: R {r:.4g}, noise variance {noise ** 2:.4g}')
+    assert abs(r / noise ** 2 - 1.0) < 0.05
+
+
+def test_feedthrough_zero_is_the_default_and_fit_finds_noise_on_a_plant_without_one(
+        third_order_bag, tmp_path, capsys):
+    default, fitted = tmp_path / 'default.yaml', tmp_path / 'fit.yaml'
+    assert main([str(third_order_bag), '--order', '3', '-o', str(default)]) == 0
+    fit_zero = float(capsys.readouterr().out.split('held-out data: position ')[1].split('%')[0])
+    assert main([str(third_order_bag), '--order', '3', '--feedthrough', 'fit',
+                 '-o', str(fitted)]) == 0
+    fit = float(capsys.readouterr().out.split('held-out data: position ')[1].split('%')[0])
+    d = load_parameter_file(str(fitted))['model.D'][0]
+    print(f'no feedthrough in the plant: D fitted {d:.3g}, fit {fit:.2f}% (fixed at zero '
+          f'{fit_zero:.2f}%)')
+    assert load_parameter_file(str(default))['model.D'] == [0.0]
+    assert abs(d) < 0.01 and abs(fit - fit_zero) < 0.1
+    with pytest.raises(SystemExit) as exit_:
+        main([str(third_order_bag), '--order', '3', '--feedthrough', 'some'])
+    assert exit_.value.code == 2
+    assert "--feedthrough: invalid choice: 'some'" in capsys.readouterr().err

@@ -146,8 +146,8 @@ def test_measurements_in_simulation_time_with_wall_clock_inputs_are_refused(tmp_
     done = run_replay(sim, params, '--y-topic', ROBOT_TOPICS[0], '--u-topic', ROBOT_TOPICS[1],
                       '--csv', csv, '--use-log-time')
     assert done.returncode == 0, done.stderr
-    table = np.loadtxt(csv, delimiter=',', skiprows=1)
-    assert np.array_equal(table[:, 1:3], expected.estimates)
+    table = np.loadtxt(csv, delimiter=',', skiprows=1, usecols=(2, 3))
+    assert np.array_equal(table, expected.estimates)
 
 
 def test_log_times_copied_from_other_clocks_are_refused(tmp_path):

@@ -252,8 +252,9 @@ def test_replay_tool_writes_the_online_estimates(lockstep, tmp_path):
                          capture_output=True, text=True, timeout=60)
     assert run.returncode == 0, run.stderr
     lines = csv.read_text().splitlines()
-    assert lines[0] == 'stamp_ns,q,q_dot,load,innovation_shoulder'
+    assert lines[0] == 'stamp_ns,event,q,q_dot,load,innovation_shoulder'
     rows = [line.split(',') for line in lines[1:]]
     np.testing.assert_array_equal([int(row[0]) for row in rows], arrays['x_hat'][0])
-    np.testing.assert_array_equal([[float(v) for v in row[1:4]] for row in rows],
+    assert {row[1] for row in rows} == {'y'}
+    np.testing.assert_array_equal([[float(v) for v in row[2:5]] for row in rows],
                                   arrays['x_hat'][1])

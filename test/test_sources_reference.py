@@ -23,9 +23,10 @@ order, as a node receives them. Independent references written here in plain num
 samples of one stamp in one update: the time-varying Kalman filter, the steady-state
 Kalman filter with one Riccati solution per subset of outputs and interval, the
 full-order observer with one gain per subset placed by Ackermann's formula. The estimates
-(and covariances) must agree to 1e-9 relative: at every stamp of the history at the end,
-and for the estimates the stream returned along the way, each against the reference run
-on the measurements that had arrived when it was returned.
+(and covariances) must agree to 1e-9 relative, or to what the problem's conditioning allows
+where that is more (:func:`allowed_error`): at every stamp of the history at the end, and
+for the estimates the stream returned along the way, each against the reference run on the
+measurements that had arrived when it was returned.
 """
 
 import math
@@ -39,6 +40,13 @@ from observer_ros.core.sources import MeasurementSource
 from observer_ros.core.streaming import EventStream, RecordedEvent
 
 RTOL = 1e-9
+#: The reference's own move under a relative perturbation of one unit roundoff of ``A``
+#: measures the problem's conditioning: the package and the reference, each backward
+#: stable, may differ by a small multiple of it (golden_support.MARGIN, the same rule as
+#: the goldens' tolerances). The steady-state filter's Riccati equations with a singular
+#: process noise are ill conditioned: its estimates move by about 2e-8 for one ulp of A.
+MARGIN = 32
+PERTURBATIONS = 3
 START_NS = 1_000_000_000
 FAST_NS = 1_000_000  # 1 kHz
 SLOW_NS = 33_300_000  # 30 Hz, off the encoder's grid by multiples of 0.1 ms
@@ -84,9 +92,9 @@ def scenario(seed: int, equal_stamps: bool) -> tuple:
 # --- the references: plain numpy and scipy, every measurement in stamp order ----------------
 
 
-def sampled(dt: float) -> tuple:
+def sampled(dt: float, a=None) -> tuple:
     """``(Ad, Bd, Qd)`` over ``dt`` s: zero-order hold and Van Loan's integral, by expm."""
-    a, b = np.array(A), np.array(B)
+    a, b = np.array(A if a is None else a), np.array(B)
     n, m = b.shape
     block = np.zeros((n + m, n + m))
     block[:n, :n], block[:n, n:] = a, b
@@ -116,11 +124,17 @@ def held(inputs: dict, stamp: int) -> np.ndarray:
     return np.array(inputs[max(earlier)]) if earlier else np.zeros(1)
 
 
-def reference(kind: str, measurements, inputs: dict) -> dict:
-    """``{stamp: (x, P or None)}`` of a filter run on ``measurements`` in stamp order."""
+def reference(kind: str, measurements, inputs: dict, a=None) -> dict:
+    """
+    ``{stamp: (x, P or None)}`` of a filter run on ``measurements`` in stamp order.
+
+    ``a``: the plant's ``A`` (default :data:`A`). The sampled model and the Riccati solution
+    of each interval and set of outputs are computed once (the intervals repeat).
+    """
     c_all = np.array(C)
     x, p = np.zeros(2), np.eye(2)
     previous, out = None, {}
+    models, riccati = {}, {}
     for stamp, outputs, y in grouped(measurements):
         c, r = c_all[outputs], R[np.ix_(outputs, outputs)]
         if previous is None:
@@ -131,7 +145,10 @@ def reference(kind: str, measurements, inputs: dict) -> dict:
             out[stamp] = (x.copy(), p.copy() if kind == 'time_varying' else None)
             previous = stamp
             continue
-        ad, bd, qd = sampled((stamp - previous) / 1e9)
+        dt = (stamp - previous) / 1e9
+        if dt not in models:
+            models[dt] = sampled(dt, a)
+        ad, bd, qd = models[dt]
         prior = ad @ x + bd @ held(inputs, previous)
         if kind == 'time_varying':
             p_prior = ad @ p @ ad.T + qd
@@ -139,7 +156,10 @@ def reference(kind: str, measurements, inputs: dict) -> dict:
             joseph = np.eye(2) - gain @ c
             p = joseph @ p_prior @ joseph.T + gain @ r @ gain.T
         elif kind == 'steady_kalman':
-            p_prior = scipy.linalg.solve_discrete_are(ad.T, c.T, qd, r)
+            key = (dt, tuple(outputs))
+            if key not in riccati:
+                riccati[key] = scipy.linalg.solve_discrete_are(ad.T, c.T, qd, r)
+            p_prior = riccati[key]
             gain = p_prior @ c.T @ np.linalg.inv(c @ p_prior @ c.T + r)
             p = (np.eye(2) - gain @ c) @ p_prior
         else:  # full order, one output: Ackermann's formula for the pair (Ad, c Ad)
@@ -170,6 +190,27 @@ def estimator(kind: str):
 def relative_error(got, expected) -> float:
     got, expected = np.asarray(got, dtype=float), np.asarray(expected, dtype=float)
     return float(np.linalg.norm(got - expected) / max(np.linalg.norm(expected), 1e-300))
+
+
+def allowed_error(kind: str, measurements, inputs: dict, final: dict) -> float:
+    """
+    Return the tolerance of one scenario: ``max(RTOL, MARGIN * move)``.
+
+    ``move``: the largest relative change of the reference's estimates and covariances when
+    every entry of ``A`` is multiplied by ``1 +- eps`` (random signs, :data:`PERTURBATIONS`
+    draws): how far a rounding error in the data can move the exact answer.
+    """
+    rng = np.random.default_rng(0)
+    move = 0.0
+    for _ in range(PERTURBATIONS):
+        signs = rng.choice((-1.0, 1.0), size=np.shape(A))
+        other = reference(kind, measurements, inputs,
+                          a=np.array(A) * (1.0 + np.finfo(float).eps * signs))
+        for stamp, (x, p) in final.items():
+            move = max(move, relative_error(other[stamp][0], x))
+            if p is not None:
+                move = max(move, relative_error(other[stamp][1], p))
+    return max(RTOL, MARGIN * move)
 
 
 def measurement_of(event: RecordedEvent) -> tuple:
@@ -207,8 +248,9 @@ def test_late_and_out_of_order_sources_equal_the_reference_in_stamp_order(kind, 
         worst = max(worst, relative_error(sample.estimate, x))
         if p is not None:
             worst = max(worst, relative_error(sample.covariance, p))
-    print(f'\n{kind}: worst relative error {worst:.2e}')
-    assert worst <= RTOL, worst
+    allowed = allowed_error(kind, measurements, inputs, final)
+    print(f'\n{kind}: worst relative error {worst:.2e}, allowed {allowed:.2e}')
+    assert worst <= allowed, (worst, allowed)
     slow = sum(event.source == 'camera' for event in events)
     counters = stream.counters
     assert counters['reruns'] == slow == len(corrected) == counters['corrected']

@@ -21,6 +21,7 @@ from observer_ros.core.analysis import controllability, observability
 from observer_ros.core.errors import DesignError
 from observer_ros.core.loop_analysis.diophantine import diophantine_controller
 from observer_ros.core.loop_analysis.transfer_function import polynomial_text
+from observer_ros.core.model import model_feedthrough
 from observer_ros.core.poles import pole_pairs
 
 
@@ -92,7 +93,8 @@ def design_summary(system: Configuration) -> dict:
     """
     Summarize a validated system as plain JSON types.
 
-    Keys: ``model`` (n, m, p, dt, observability and controllability), ``observer.*``
+    Keys: ``model`` (n, m, p, dt, observability and controllability, ``feedthrough``
+    when ``D`` is not zero), ``observer.*``
     (type, gain rows, requested and achieved poles as ``[re, im]``, method, residual, and
     the type's matrices), ``feedback.*`` when present, ``closed_loop_poles``,
     ``controller_tf`` (``num``/``den`` highest power first, ``den`` monic) and its
@@ -115,6 +117,8 @@ def design_summary(system: Configuration) -> dict:
         },
         'notes': list(system.loop.notes),
     }
+    if model_feedthrough(model) is not None:
+        summary['model']['feedthrough'] = _rows(model.d)
     disturbed = system.augmentation.disturbance is not None
     if disturbed:
         summary['model']['plant_states'] = system.augmentation.plant.n_states
@@ -195,6 +199,9 @@ def format_report(system: Configuration) -> str:
     obs = observability(model.a, model.c)
     out.append(f'Observability matrix: rank {obs.rank} of {obs.n_states}, '
                f'condition {obs.condition_number:.4g}\n')
+    if model_feedthrough(model) is not None:
+        out.append(_matrix_text('Feedthrough D (y = C x + D u: D u is taken off each '
+                                'measurement with the input in effect at its stamp)', model.d))
     disturbed = system.augmentation.disturbance is not None
     if disturbed:
         n_plant = system.augmentation.plant.n_states

@@ -349,7 +349,7 @@ def _common_period(signals: Sequence[BagSignals]) -> int:
 
 
 def _identify(signals: Sequence[BagSignals], order: int, holdout: float,
-              horizon: Optional[int]) -> tuple:
+              horizon: Optional[int], feedthrough: str = 'fit') -> tuple:
     """Return ``(model, fit, validation, covariance, estimation, held out, period)``."""
     period = _common_period(signals)
     estimation, held_out = [], []
@@ -360,7 +360,7 @@ def _identify(signals: Sequence[BagSignals], order: int, holdout: float,
             held_out.append((stamps[split:], Record(record.inputs[split:],
                                                     record.outputs[split:])))
     model = identify_subspace(estimation, order, period / 1e9, horizon,
-                              signals[0].input_names)
+                              signals[0].input_names, feedthrough)
     validation = []
     for stamps, record in held_out:
         if len(stamps) <= 2 * order:
@@ -384,13 +384,16 @@ def identify_bags(bags: Sequence[str], inputs: Sequence[SignalSpec],
                   outputs: Sequence[SignalSpec], order: int, mapper: Callable,
                   holdout: float = HOLDOUT, horizon: Optional[int] = None,
                   continuous: bool = False, use_log_time: bool = False,
-                  resample_rate: Union[None, str, float] = None) -> Identification:
+                  resample_rate: Union[None, str, float] = None,
+                  feedthrough: str = 'fit') -> Identification:
     """
     Identify a model of ``order`` from the bags and score it on their held-out parts.
 
     With ``resample_rate`` (Hz, or ``'auto'``) every bag is resampled onto a uniform grid
     (:func:`resample`) and the raw samples, taken as evenly spaced at their median
     interval, are identified and scored too: :attr:`Identification.raw_fit`, to compare.
+    ``feedthrough`` (``fit`` or ``zero``): ``D`` fitted, or fixed at zero
+    (:func:`~observer_ros.core.tuning.subspace.identify_subspace`).
 
     Raises
     ------
@@ -411,11 +414,12 @@ def identify_bags(bags: Sequence[str], inputs: Sequence[SignalSpec],
                            f'{list(item.output_names)}, {first.bag} holds '
                            f'{list(first.input_names)} and {list(first.output_names)}')
     model, fit, validation, covariance, estimated, held, period = _identify(
-        signals, order, holdout, horizon)
+        signals, order, holdout, horizon, feedthrough)
     raw_fit, raw_error = None, ''
     if first.raw is not None:
         try:
-            raw_fit = _identify([item.raw for item in signals], order, holdout, horizon)[1]
+            raw_fit = _identify([item.raw for item in signals], order, holdout, horizon,
+                                feedthrough)[1]
         except (BagError, ConfigError, DesignError, ValueError) as e:
             raw_error = str(e)
     converted = to_continuous(model.a, model.b, period / 1e9) if continuous else None

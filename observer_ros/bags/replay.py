@@ -27,6 +27,7 @@ from your own tests::
 Writing the results to a bag or a CSV file is :mod:`observer_ros.bags.replay_outputs`.
 """
 
+import dataclasses
 from dataclasses import dataclass, field
 import os
 from typing import Optional, Union
@@ -36,17 +37,32 @@ import numpy as np
 from observer_ros.bags.storage import (
     absolute_topic, BagError, Playback, read_topics, TopicData, TopicRequest)
 from observer_ros.config import Configuration, load_parameter_file, validate_parameters
-from observer_ros.config.schema import FIELD_MESSAGE_TYPES, JOINT_STATE_FIELDS, topic_names
+from observer_ros.config.schema import (
+    FIELD_MESSAGE_TYPES, JOINT_STATE_FIELDS, source_parameter, topic_names)
 from observer_ros.core.estimates import replay_arrays
 from observer_ros.core.evaluation import align
-from observer_ros.core.events import INPUT
+from observer_ros.core.events import INPUT, MEASUREMENT
 from observer_ros.core.streaming import RecordedEvent
 from observer_ros.core.units import NANOSECONDS
-from observer_ros.ros.cdr import DecodeError, FieldReader, MessageReader
+from observer_ros.ros.cdr import DecodeError, FieldReader, MessageReader, parse_layout
 
 
 #: Inputs, evenly spread, whose stamps are compared with the measurements' time base.
 TIME_BASE_SAMPLES = 4096
+
+#: What to do about streams stamped in different time bases, offline.
+LOG_TIME_ADVICE = ('replay with log times for both (replay --use-log-time, '
+                   'replay_bag(..., use_log_time=True))')
+
+#: What made each published estimate (``ReplayResult.events``): a measurement source's
+#: name (``y`` without sources) for its own estimate, and these.
+RERUN, INPUT_EVENT, FLUSHED = 'rerun', 'input', 'flush'
+
+#: Event kinds of the stream that a replay reports as warnings (the node warns of them too).
+WARNED_EVENTS = ('time_base',)
+
+#: Messages of a topic read before a stream none of which holds its fields is refused.
+PROBE_MESSAGES = 20
 
 
 def topic_request(system: Configuration, key: str, topic: Optional[str] = None) -> TopicRequest:
@@ -80,8 +96,7 @@ def _clock(data: TopicData) -> str:
 
 def check_time_bases(outputs: TopicData, inputs: TopicData, max_gap_ns: int, bag: str = '',
                      y_topic: str = 'y', u_topic: str = 'u',
-                     log_time_advice: str = 'replay with log times for both (replay '
-                     '--use-log-time, replay_bag(..., use_log_time=True))') -> None:
+                     log_time_advice: str = LOG_TIME_ADVICE) -> None:
     """
     Refuse measurements and inputs stamped in different time bases.
 
@@ -133,6 +148,54 @@ def check_time_bases(outputs: TopicData, inputs: TopicData, max_gap_ns: int, bag
                        f'input. {advice}')
 
 
+def stream_warnings(stream, bag: str = '', y_topic: str = 'y', u_topic: str = 'u') -> tuple:
+    """
+    Return the warnings of a replayed stream: the first of each kind the node warns of.
+
+    The text is the stream's own (the observer node logs the same words), followed by the
+    counters it explains and what to do offline.
+    """
+    first: dict = {}
+    for kind, text in stream.events:
+        if kind in WARNED_EVENTS:
+            first.setdefault(kind, text)
+    counters = stream.counters
+    prefix = f'{bag}: ' if bag else ''
+    warnings = []
+    if 'time_base' in first:
+        late = counters.get('late_input', 0) + counters.get('no_input', 0)
+        warnings.append(f'{prefix}{first["time_base"]} {late} of '
+                        f'{counters.get("measurements", 0)} measurements were paired with a '
+                        f'late input or none; stamp {absolute_topic(u_topic)} in the clock of '
+                        f'the measurements, or {LOG_TIME_ADVICE}')
+    return tuple(warnings)
+
+
+@dataclass(frozen=True)
+class InOrderEstimates:
+    """
+    The estimate at each stamp once every late sample is in, in stamp order.
+
+    What the node's history holds when no later sample can change it: the estimates the
+    stream computed again after a late measurement but published only for the newest stamp
+    (see ``doc/measurement_sources.md``).
+
+    Attributes
+    ----------
+    stamps_ns : numpy.ndarray of int64, shape (k,)
+    estimates : numpy.ndarray, shape (k, n)
+    covariances : numpy.ndarray or None, shape (k, n, n)
+    events : numpy.ndarray of str, shape (k,)
+        The sources whose samples made each update, joined by ``+``.
+
+    """
+
+    stamps_ns: np.ndarray
+    estimates: np.ndarray
+    covariances: Optional[np.ndarray]
+    events: np.ndarray
+
+
 @dataclass
 class ReplayResult:
     """
@@ -154,6 +217,16 @@ class ReplayResult:
         What was read for ``y`` and ``u``.
     counters : dict
         The stream's counters (see :class:`observer_ros.core.streaming.EventStream`).
+    warnings : tuple of str
+        What the observer node would warn of (:func:`stream_warnings`): inputs stamped in
+        another time base than the measurements, with what to do.
+    events : numpy.ndarray of str or None, shape (k,)
+        What made each estimate: the name of the measurement source whose sample it is the
+        estimate of (``y`` without sources), ``rerun`` (the newest estimate again, corrected
+        after a late sample), ``input`` (released by the input it waited for), ``flush``
+        (released at the end of the bag with the inputs at hand).
+    in_order : InOrderEstimates or None
+        The estimates in stamp order after every late sample.
 
     """
 
@@ -169,6 +242,9 @@ class ReplayResult:
     covariances: Optional[np.ndarray] = None
     innovation_covariances: Optional[np.ndarray] = None
     nis: Optional[np.ndarray] = None
+    warnings: tuple = ()
+    events: Optional[np.ndarray] = None
+    in_order: Optional[InOrderEstimates] = None
 
     def truth(self, topic: str = 'x_true') -> TopicData:
         """Read the true state (or another reference topic) from the bag, in the replay's time."""
@@ -252,7 +328,8 @@ def replay_data(bag, system: Configuration, outputs: TopicData, inputs: TopicDat
     """
     Run the observer of ``system`` over measurements and inputs already read from ``bag``.
 
-    What :func:`replay_bag` does without measurement sources, for readers of other topics:
+    What :func:`replay_bag` does without measurement sources (its second half), and what
+    readers of other topics run:
     ``tune_kalman --inputs/--outputs`` reads them by field path
     (:func:`observer_ros.bags.signals.read_signals`). The stamps are checked for one time
     base (:func:`check_time_bases`) unless ``use_log_time``, which stamps both with their
@@ -267,12 +344,15 @@ def replay_data(bag, system: Configuration, outputs: TopicData, inputs: TopicDat
                          absolute_topic(u_topic))
     stream = setup.make_stream()
     stream.input_stamped = input_stamped
+    stream.engine.retired = []
     result = stream.replay(inputs.stamps_ns, inputs.values, outputs.stamps_ns, outputs.values,
                            inputs.log_times_ns, outputs.log_times_ns)
+    labels = _stamp_events(result.stamps_ns)
     return ReplayResult(system, str(bag), result.stamps_ns, result.estimates,
                         result.innovations, outputs, inputs, dict(stream.counters),
                         use_log_time, result.covariances, result.innovation_covariances,
-                        result.nis)
+                        result.nis, stream_warnings(stream, str(bag), y_topic, u_topic),
+                        labels, _in_order(stream, result, labels))
 
 
 def load_system(parameters: Union[str, os.PathLike, Configuration]) -> Configuration:
@@ -304,15 +384,132 @@ def _input_reader(system: Configuration):
     return MessageReader(settings.type, settings.field, names)
 
 
+def _vector_parameter(system: Configuration, key: str) -> str:
+    """Name the parameters that say what a vector topic (``y``, ``u``) is read from."""
+    settings = system.topics[key]
+    if key == 'u' and settings.fields:
+        return 'topics.u.fields'
+    names = 'model.output_names' if key == 'y' else 'model.input_names'
+    if settings.type == 'joint_state':
+        return f'topics.{key}.field {settings.field!r} of the joints {names}'
+    return f'{names} (one entry of data each)'
+
+
+@dataclass(frozen=True)
+class _Reading:
+    """One stream read from a bag topic: its event name, type, reader and parameter."""
+
+    name: str
+    msgtype: str
+    reader: object
+    parameter: str
+
+
+def _readings(system: Configuration, y_topic: str, u_topic: str) -> dict:
+    """Return ``{topic: [_Reading, ...]}``: every stream the observer reads, by bag topic."""
+    sources = system.observer.sources
+    readings: dict = {}
+    if sources is None:  # one y topic, as topics.y says
+        settings = system.topics['y']
+        readings[absolute_topic(y_topic)] = [_Reading(
+            MEASUREMENT, FIELD_MESSAGE_TYPES[settings.type],
+            MessageReader(settings.type, settings.field, topic_names(system.model, 'y')),
+            _vector_parameter(system, 'y'))]
+    else:
+        for settings, msgtype in zip(sources.settings, sources.msgtypes):
+            readings.setdefault(absolute_topic(settings.topic), []).append(_Reading(
+                settings.name, msgtype, FieldReader(msgtype, settings.fields),
+                source_parameter(settings.name, 'fields')))
+    if system.model.n_inputs:
+        msgtype = FIELD_MESSAGE_TYPES[system.topics['u'].type]
+        readings.setdefault(absolute_topic(u_topic), []).append(_Reading(
+            INPUT, msgtype, _input_reader(system), _vector_parameter(system, 'u')))
+    for topic, streams in readings.items():
+        types = {reading.msgtype for reading in streams}
+        if len(types) > 1:
+            raise BagError(f'{topic} is read as {" and ".join(sorted(types))} ('
+                           + ', '.join(f'{reading.parameter}' for reading in streams)
+                           + '); one topic holds one message type')
+    return readings
+
+
+def describe_message(raw: bytes, msgtype: str) -> str:
+    """Say what a serialized message holds, for the error of a field it does not have."""
+    kind = {FIELD_MESSAGE_TYPES['joint_state']: 'joint_state',
+            FIELD_MESSAGE_TYPES['float64_multi_array']: 'float64_multi_array'}.get(msgtype)
+    if kind is None:
+        return f'a {msgtype}'
+    try:
+        layout = parse_layout(raw, kind)
+    except DecodeError as e:
+        return f'a {msgtype} that cannot be parsed ({e})'
+    if kind == 'float64_multi_array':
+        return f'data of {layout.arrays["data"][1]} values'
+    counts = ', '.join(f'{field} {layout.arrays[field][1]}' for field in JOINT_STATE_FIELDS)
+    return f'the joints {list(layout.names)} (values: {counts})'
+
+
+class _FieldCheck:
+    """
+    Refuse a stream none of whose first messages holds what its parameter asks for.
+
+    A misspelt joint or field would otherwise make every message malformed and the replay
+    an empty success; a stream that reads some of its first :data:`PROBE_MESSAGES`
+    messages is taken (the rest that fail are counted as ``malformed``).
+    """
+
+    def __init__(self, bag) -> None:
+        self.bag = bag
+        self.tried: dict = {}
+        self.first: dict = {}
+        self.readings: dict = {}
+
+    def failed(self, topic: str, reading: _Reading, raw: bytes, error: Exception) -> None:
+        """Note a message the reading could not read; raise after the probe's worth."""
+        key = (topic, reading.name)
+        if key not in self.tried:
+            return  # it has read a message: failures are malformed messages, counted
+        self.tried[key] += 1
+        self.first.setdefault(key, (raw, error))
+        if self.tried[key] >= PROBE_MESSAGES:
+            self.refuse(topic, reading)
+
+    def read(self, topic: str, reading: _Reading) -> None:
+        """Note a message the reading read: the stream is there."""
+        self.tried.pop((topic, reading.name), None)
+
+    def start(self, readings: dict) -> None:
+        """Watch every reading until it reads a message."""
+        self.tried = {(topic, reading.name): 0 for topic, streams in readings.items()
+                      for reading in streams}
+        self.readings = readings
+
+    def finish(self) -> None:
+        """Refuse a reading that tried messages and read none."""
+        for (topic, name), tried in list(self.tried.items()):
+            if tried:
+                reading = next(r for r in self.readings[topic] if r.name == name)
+                self.refuse(topic, reading)
+
+    def refuse(self, topic: str, reading: _Reading) -> None:
+        key = (topic, reading.name)
+        raw, error = self.first[key]
+        raise BagError(f'{self.bag}: {reading.parameter}: none of the first '
+                       f'{self.tried[key]} messages of {topic} holds what it asks for '
+                       f'({error}); the topic holds {describe_message(raw, reading.msgtype)}')
+
+
 def recorded_events(bag, system: Configuration, u_topic: str = 'u',
-                    use_log_time: bool = False) -> tuple:
+                    use_log_time: bool = False, y_topic: str = 'y') -> tuple:
     """
     Read the measurement sources' and the inputs' messages of a bag, in bag order.
 
     Each message is read as the observer node reads it: the fields of its source
-    (:class:`~observer_ros.ros.cdr.FieldReader`), its header stamp where the type has one
-    and it is not zero, else its log time (the node, under ``play_bag``, stamps it with
-    ``/clock``, which is that log time); the log time is its arrival.
+    (:class:`~observer_ros.ros.cdr.FieldReader`; without sources, ``y_topic`` as
+    ``topics.y`` says), its header stamp where the type has one and it is not zero, else
+    its log time (the node, under ``play_bag``, stamps it with ``/clock``, which is that
+    log time); the log time is its arrival. Sources that share a topic each read every
+    message of it, in the order of ``observer.sources``.
 
     Returns
     -------
@@ -323,55 +520,65 @@ def recorded_events(bag, system: Configuration, u_topic: str = 'u',
     Raises
     ------
     observer_ros.bags.storage.BagError
-        A source's topic (or ``u_topic``) is not in the bag or holds another type.
+        A source's topic (or ``u_topic``) is not in the bag or holds another type, or none
+        of the first :data:`PROBE_MESSAGES` messages of a topic has the fields (joints,
+        entries) its parameter names: the error names the parameter and what the topic
+        holds.
 
     """
     from collections import Counter
-    sources = system.observer.sources
-    readers = {absolute_topic(settings.topic): (
-        settings.name, msgtype, FieldReader(msgtype, settings.fields))
-               for settings, msgtype in zip(sources.settings, sources.msgtypes)}
-    if system.model.n_inputs:
-        settings = system.topics['u']
-        msgtype = FIELD_MESSAGE_TYPES[settings.type]
-        readers[absolute_topic(u_topic)] = (INPUT, msgtype, _input_reader(system))
-    playback = Playback(bag, list(readers))
-    events, counts = [], {name: Counter() for name, _, _ in readers.values()}
+    readings = _readings(system, y_topic, u_topic)
+    playback = Playback(bag, list(readings))
+    events = []
+    counts = {reading.name: Counter() for streams in readings.values() for reading in streams}
+    check = _FieldCheck(bag)
+    check.start(readings)
     try:
-        for topic, (expected, _) in playback.topics.items():
-            if expected != readers[topic][1]:
-                raise BagError(f'{bag}: topic {playback.recorded[topic]} holds {expected}, '
-                               f'expected {readers[topic][1]} (the type of its source)')
+        for topic, (recorded_type, _) in playback.topics.items():
+            for reading in readings[topic]:
+                if recorded_type != reading.msgtype:
+                    raise BagError(f'{bag}: topic {playback.recorded[topic]} holds '
+                                   f'{recorded_type}, expected {reading.msgtype} (the type '
+                                   f'of {reading.parameter.split()[0]})')
         for topic, log_time, raw in playback.messages():
-            name, _, reader = readers[topic]
-            counts[name]['received'] += 1
-            try:
-                stamp, values = reader.read(raw)
-            except DecodeError:
-                counts[name]['malformed'] += 1
-                continue
-            if not all(map(np.isfinite, values)):
-                counts[name]['malformed'] += 1
-                continue
-            stamp = log_time if use_log_time or not stamp else stamp
-            events.append(RecordedEvent(name, stamp, np.array(values, dtype=float), log_time))
+            for reading in readings[topic]:
+                name = reading.name
+                counts[name]['received'] += 1
+                try:
+                    stamp, values = reading.reader.read(raw)
+                except DecodeError as e:
+                    check.failed(topic, reading, raw, e)
+                    counts[name]['malformed'] += 1
+                    continue
+                check.read(topic, reading)
+                if not all(map(np.isfinite, values)):
+                    counts[name]['malformed'] += 1
+                    continue
+                stamp = log_time if use_log_time or not stamp else stamp
+                events.append(RecordedEvent(name, stamp, np.array(values, dtype=float),
+                                            log_time))
+        check.finish()
     finally:
         playback.close()
     return events, counts
 
 
-def _replay_sources(bag, system: Configuration, u_topic: str,
+def _replay_sources(bag, system: Configuration, y_topic: str, u_topic: str,
                     use_log_time: bool) -> 'ReplayResult':
-    """:func:`replay_bag` of a configuration with measurement sources: message by message."""
-    events, counts = recorded_events(bag, system, u_topic, use_log_time)
+    """:func:`replay_bag` message by message: measurement sources, or inputs by field."""
+    events, counts = recorded_events(bag, system, u_topic, use_log_time, y_topic)
     stream = system.observer.make_stream()
     if use_log_time:
         stream.input_stamped = False
-    samples = stream.replay_events(events)
+    stream.engine.retired = []
+    causes: list = []
+    samples = stream.replay_events(events, causes)
     model = system.model
     arrays = replay_arrays([sample._replace(innovation=_full_innovation(sample, model),
                                             innovation_covariance=None, nis=None)
                             for sample in samples], model.n_states, model.n_outputs)
+    labels = _cause_events(samples, causes, stream.engine.sources)
+    arrays = dataclasses.replace(arrays, covariances=_covariances(samples, model.n_states))
     measured = [event for event in events if event.source != INPUT]
     inputs = [event for event in events if event.source == INPUT]
     counters = dict(stream.counters)
@@ -380,7 +587,46 @@ def _replay_sources(bag, system: Configuration, u_topic: str,
     return ReplayResult(system, str(bag), arrays.stamps_ns, arrays.estimates,
                         arrays.innovations, _topic_data(measured, 0), _topic_data(
                             inputs, model.n_inputs), counters, use_log_time,
-                        arrays.covariances, None, None)
+                        arrays.covariances, None, None,
+                        stream_warnings(stream, str(bag), y_topic, u_topic), labels,
+                        _in_order(stream, arrays, labels))
+
+
+def _covariances(samples: list, n_states: int) -> Optional[np.ndarray]:
+    """
+    Return ``P`` of each sample, ``(k, n, n)``: NaN where a sample has none, None if none has.
+
+    The first estimate of a steady-state filter has no covariance yet (the node publishes
+    none for it); the rest still go to the CSV.
+    """
+    if not any(sample.covariance is not None for sample in samples):
+        return None
+    missing = np.full((n_states, n_states), np.nan)
+    return np.array([missing if sample.covariance is None else sample.covariance
+                     for sample in samples], dtype=float)
+
+
+def _in_order(stream, published, events) -> 'InOrderEstimates':
+    """
+    Return the in-order estimates of a replayed stream, after every late sample.
+
+    With a history: the entries that left it (final) and those still in it, oldest first,
+    each named by the sources of its update (``wheels+imu``). Without one nothing is re-run
+    and the published estimates are the in-order ones.
+    """
+    engine = stream.engine
+    if not engine.keeps_history:
+        return InOrderEstimates(published.stamps_ns, published.estimates,
+                                published.covariances, np.asarray(events, dtype=str))
+    entries = [entry for entry in (engine.retired or []) + list(engine.entries)
+               if entry.result is not None]
+    n_states = stream.estimator.n_states
+    stamps = np.array([entry.stamp_ns for entry in entries], dtype=np.int64)
+    estimates = np.array([entry.result.estimate for entry in entries],
+                         dtype=float).reshape(-1, n_states)
+    covariances = _covariances([entry.result for entry in entries], n_states)
+    names = np.array(['+'.join(entry.parts) for entry in entries], dtype=str)
+    return InOrderEstimates(stamps, estimates, covariances, names)
 
 
 def _full_innovation(sample, model) -> np.ndarray:
@@ -440,25 +686,40 @@ def replay_bag(bag: Union[str, os.PathLike],
     """
     system = load_system(parameters)
     if system.observer.sources is not None or system.topics['u'].fields:
-        return _replay_sources(bag, system, u_topic, use_log_time)
+        return _replay_sources(bag, system, y_topic, u_topic, use_log_time)
     if system.model.n_inputs == 0:  # no inputs: the measurements alone
         (outputs,) = read_topics(bag, [topic_request(system, 'y', y_topic)])
         inputs = TopicData(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 0)))
     else:
         outputs, inputs = read_topics(bag, [topic_request(system, 'y', y_topic),
                                             topic_request(system, 'u', u_topic)])
-    setup = system.observer
-    max_gap_ns, input_stamped = setup.max_gap_ns, setup.input_stamped
-    if use_log_time:
-        outputs, inputs, input_stamped = log_timed(outputs), log_timed(inputs), False
-    else:
-        check_time_bases(outputs, inputs, max_gap_ns, str(bag), absolute_topic(y_topic),
-                         absolute_topic(u_topic))
-    stream = setup.make_stream()
-    stream.input_stamped = input_stamped
-    result = stream.replay(inputs.stamps_ns, inputs.values, outputs.stamps_ns, outputs.values,
-                           inputs.log_times_ns, outputs.log_times_ns)
-    return ReplayResult(system, str(bag), result.stamps_ns, result.estimates,
-                        result.innovations, outputs, inputs, dict(stream.counters),
-                        use_log_time, result.covariances, result.innovation_covariances,
-                        result.nis)
+    return replay_data(bag, system, outputs, inputs, use_log_time, y_topic, u_topic)
+
+
+def _cause_events(samples: list, causes: list, sources: dict) -> np.ndarray:
+    """
+    Name what made each estimate of :meth:`EventStream.replay_events`.
+
+    The source of the measurement it is the estimate of (at the measurement's stamp, less
+    the source's latency), ``rerun`` for the newest estimate corrected after a late sample,
+    ``input`` for estimates an input released, ``flush`` for those of the final flush.
+    """
+    labels = []
+    for sample, event in zip(samples, causes):
+        if event is None:
+            labels.append(FLUSHED)
+        elif event.source == INPUT:
+            labels.append(INPUT_EVENT)
+        elif sample.stamp_ns == event.stamp_ns - sources[event.source].latency_ns:
+            labels.append(event.source)
+        else:
+            labels.append(RERUN)
+    return np.array(labels, dtype=str)
+
+
+def _stamp_events(stamps_ns: np.ndarray) -> np.ndarray:
+    """Name the estimates of one ``y`` stream: ``y``, or ``rerun`` at a stamp given before."""
+    _, first = np.unique(stamps_ns, return_index=True)
+    labels = np.full(len(stamps_ns), RERUN, dtype=object)
+    labels[first] = MEASUREMENT
+    return labels.astype(str)

@@ -43,13 +43,13 @@ def missing_parents(path: Path) -> list:
 
 
 def check_outputs(bag: Optional[str] = None, csv: Optional[str] = None,
-                  report: Optional[str] = None) -> None:
+                  report: Optional[str] = None, in_order: Optional[str] = None) -> None:
     """
     Check that the outputs of a replay can be written, before anything is.
 
-    The bag must not exist, the CSV must not be a directory, the report must be a
-    directory (or not exist), none may name another, and each must land in a directory
-    that can be created and written.
+    The bag must not exist, the CSV files (``csv``, ``in_order``) must not be
+    directories, the report must be a directory (or not exist), none may name another,
+    and each must land in a directory that can be created and written.
 
     Raises
     ------
@@ -58,11 +58,12 @@ def check_outputs(bag: Optional[str] = None, csv: Optional[str] = None,
 
     """
     named = [(option, Path(value)) for option, value in
-             (('--output', bag), ('--csv', csv), ('--report', report)) if value is not None]
+             (('--output', bag), ('--csv', csv), ('--report', report),
+              ('--in-order', in_order)) if value is not None]
     for index, (option, path) in enumerate(named):
         if option == '--output' and os.path.lexists(path):
             raise BagError(f'--output: {path} exists already; choose a new output path')
-        if option == '--csv' and path.is_dir():
+        if option in ('--csv', '--in-order') and path.is_dir():
             raise BagError(f'--csv: {path} is a directory; give a file name')
         if option == '--report' and path.exists() and not path.is_dir():
             raise BagError(f'--report: {path} is a file; give a directory')
@@ -84,11 +85,23 @@ def check_writable_parent(option: str, path: Path) -> None:
         raise BagError(f'{option}: cannot write in {existing}')
 
 
-def _write_csv(result: ReplayResult, target: Path) -> None:
-    """Write the CSV to a scratch file renamed into place, with a plain open()'s mode."""
-    system = result.system
-    header = ['stamp_ns', *system.model.state_names,
-              *(f'innovation_{name}' for name in system.model.output_names)]
+#: What ``covariance`` may ask of the CSV files: nothing, the variances, every entry.
+COVARIANCE_COLUMNS = ('none', 'diagonal', 'full')
+
+
+def _covariance_columns(names, covariances, covariance: str) -> tuple:
+    """Return the header and ``(k, c)`` values of the covariance columns asked for."""
+    if covariances is None or covariance == 'none':
+        return [], None
+    if covariance == 'diagonal':
+        return ([f'variance_{name}' for name in names],
+                np.diagonal(covariances, axis1=1, axis2=2))
+    return ([f'covariance_{row}_{column}' for row in names for column in names],
+            covariances.reshape(len(covariances), -1))
+
+
+def _write_table(target: Path, header: list, stamps, labels, values) -> None:
+    """Write a CSV to a scratch file renamed into place, with a plain open()'s mode."""
     directory = target.parent if str(target.parent) else Path('.')
     while True:  # like tempfile.mkstemp, but created 0666 & ~umask, not 0600
         scratch = directory / f'.{target.name}.{os.urandom(6).hex()}'
@@ -100,38 +113,75 @@ def _write_csv(result: ReplayResult, target: Path) -> None:
     try:
         with os.fdopen(handle, 'w', encoding='utf-8') as stream:
             stream.write(','.join(header) + '\n')
-            values = np.column_stack([result.estimates, result.innovations])
-            for stamp, row in zip(result.stamps_ns.tolist(), values.tolist()):
-                stream.write(f'{stamp},' + ','.join(map(repr, row)) + '\n')
+            for stamp, label, row in zip(stamps.tolist(), labels.tolist(), values.tolist()):
+                stream.write(f'{stamp},{label},' + ','.join(map(repr, row)) + '\n')
         os.replace(scratch, target)
     finally:
         if os.path.exists(scratch):
             os.unlink(scratch)
 
 
-def write_replay(result: ReplayResult, bag: Optional[str] = None, csv: Optional[str] = None,
-                 storage: str = 'mcap', innovation: bool = True) -> None:
-    """
-    Write ``x_hat`` (and the innovation) to a new bag and/or a CSV file.
+def _write_csv(result: ReplayResult, target: Path, covariance: str = 'diagonal') -> None:
+    """Write the published estimates: stamp, event, x_hat, innovation, covariance."""
+    model = result.system.model
+    extra, columns = _covariance_columns(model.state_names, result.covariances, covariance)
+    header = ['stamp_ns', 'event', *model.state_names,
+              *(f'innovation_{name}' for name in model.output_names), *extra]
+    values = np.column_stack([result.estimates, result.innovations,
+                              *([] if columns is None else [columns])])
+    labels = result.events if result.events is not None else np.full(
+        len(result.stamps_ns), 'y')
+    _write_table(target, header, result.stamps_ns, labels, values)
 
-    The bag's log times are the measurement stamps; the CSV has ``stamp_ns`` and one column
-    per state (then ``innovation_<output>``). Both paths are checked first
-    (:func:`check_outputs`), each is written to a temporary name renamed into place, and
-    when the second fails the first is removed: an error leaves nothing behind. Files get
-    the permissions a plain ``open()`` gives (the umask applies).
+
+def _write_in_order(result: ReplayResult, target: Path, covariance: str = 'diagonal') -> None:
+    """Write the in-order estimates: stamp, the sources of its update, x_hat, covariance."""
+    model, in_order = result.system.model, result.in_order
+    extra, columns = _covariance_columns(model.state_names, in_order.covariances, covariance)
+    header = ['stamp_ns', 'sources', *model.state_names, *extra]
+    values = np.column_stack([in_order.estimates, *([] if columns is None else [columns])])
+    _write_table(target, header, in_order.stamps_ns, in_order.events, values)
+
+
+def write_replay(result: ReplayResult, bag: Optional[str] = None, csv: Optional[str] = None,
+                 storage: str = 'mcap', innovation: bool = True,
+                 in_order: Optional[str] = None, covariance: str = 'diagonal') -> None:
+    """
+    Write ``x_hat`` (and the innovation) to a new bag and/or CSV files.
+
+    The bag's log times are the measurement stamps. The CSV has a row per published
+    estimate: ``stamp_ns``, ``event`` (what made the row: a measurement source's name, or
+    ``y`` without sources; ``rerun``, the newest estimate again after a late sample;
+    ``input``, released by the input it waited for; ``flush``, at the end of the bag), one
+    column per state, ``innovation_<output>`` (empty outputs of a partial update are
+    ``nan``), and where the filter has a covariance ``variance_<state>``
+    (``covariance='full'``: ``covariance_<row>_<column>``, row-major; ``'none'``: no
+    columns). ``in_order`` writes the estimates in stamp order after every late sample
+    (``stamp_ns``, ``sources``: those of its update joined by ``+``, the states and the
+    covariance columns). Every path is checked first (:func:`check_outputs`), each is
+    written to a temporary name renamed into place, and when a later one fails the earlier
+    are removed: an error leaves nothing behind. Files get the permissions a plain
+    ``open()`` gives (the umask applies).
 
     Raises
     ------
     observer_ros.bags.storage.BagError
-        An output that cannot be written, or an unknown storage.
+        An output that cannot be written, an unknown storage or covariance choice, or
+        ``in_order`` for a result without in-order estimates.
 
     """
-    check_outputs(bag, csv)
+    check_outputs(bag, csv, None, in_order)
     if storage not in STORAGES:
         raise BagError(f'storage: expected one of {", ".join(STORAGES)}, got {storage!r}')
+    if covariance not in COVARIANCE_COLUMNS:
+        raise BagError(f'covariance: expected one of {", ".join(COVARIANCE_COLUMNS)}, got '
+                       f'{covariance!r}')
+    if in_order is not None and result.in_order is None:
+        raise BagError('--in-order: this result has no in-order estimates (replay it with '
+                       'replay_bag)')
     system = result.system
     estimate, innovations = system.topics['x_hat'], system.topics['innovation']
-    written, made = [], made_directories(bag, csv)
+    written, made = [], made_directories(bag, csv, in_order)
     try:
         if bag is not None:
             topics = [TopicToWrite('/x_hat', estimate.type, estimate.field,
@@ -144,9 +194,11 @@ def write_replay(result: ReplayResult, bag: Optional[str] = None, csv: Optional[
                     result.innovations))
             write_bag(bag, topics, storage)
             written.append(Path(bag))
-        if csv is not None:
-            Path(csv).absolute().parent.mkdir(parents=True, exist_ok=True)
-            _write_csv(result, Path(csv))
+        for path, write in ((csv, _write_csv), (in_order, _write_in_order)):
+            if path is not None:
+                Path(path).absolute().parent.mkdir(parents=True, exist_ok=True)
+                write(result, Path(path), covariance)
+                written.append(Path(path))
     except BaseException:
         remove_outputs(written, made)
         raise
@@ -173,5 +225,5 @@ def remove_outputs(written, directories=()) -> None:
             continue
 
 
-__all__ = ['check_outputs', 'check_writable_parent', 'made_directories', 'missing_parents',
-           'remove_outputs', 'write_replay']
+__all__ = ['COVARIANCE_COLUMNS', 'check_outputs', 'check_writable_parent', 'made_directories',
+           'missing_parents', 'remove_outputs', 'write_replay']

@@ -302,8 +302,9 @@ def bag_innovations(bag: str, parameters: dict, y_topic: str = 'y', u_topic: str
     Raises
     ------
     BagError
-        The bag cannot give the topics, holds a sample that is not finite, or its sample
-        intervals are not even within :data:`PERIOD_TOLERANCE`.
+        The bag cannot give the topics, holds a sample that is not finite, its inputs are
+        stamped in another time base than its measurements, or its sample intervals are not
+        even within :data:`PERIOD_TOLERANCE`.
 
     """
     system = system_of(parameters)
@@ -316,6 +317,9 @@ def bag_innovations(bag: str, parameters: dict, y_topic: str = 'y', u_topic: str
     else:
         breaks = np.zeros(0, np.int64)
         result = replay_bag(bag, system, y_topic, u_topic, choice.use_log_time)
+    if result.warnings:  # inputs in another clock: every interval with the wrong input
+        raise BagError(f'{result.warnings[0]}; tuning needs the inputs in the clock of the '
+                       f'measurements (tune_kalman --use-log-time)')
     _finite(bag, f'topic {y_topic}', result.outputs.values, result.outputs.stamps_ns)
     if len(result.inputs.values):
         _finite(bag, f'topic {u_topic}', result.inputs.values, result.inputs.stamps_ns)

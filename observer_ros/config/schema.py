@@ -166,7 +166,8 @@ MODEL = (
     _values('model.A', _matrix('State matrix A, n x n (n*n values)'), ALL_NODES),
     _values('model.B', _matrix('Input matrix B, n x m'), ALL_NODES),
     _values('model.C', _matrix('Output matrix C, p x n'), ALL_NODES),
-    _values('model.D', _matrix('Feedthrough D, p x m; empty means zero'), ALL_NODES),
+    _values('model.D', _matrix('Feedthrough D, p x m: y = C x + D u, u the input in effect '
+                               'at the stamp of the measurement; empty means zero'), ALL_NODES),
     _seconds('model.dt', 0.0, 'Model period in seconds: 0 for continuous time, > 0 for '
              'discrete time.', 0.0, 3600.0, ALL_NODES),
     _spec('model.state_names', STRING_ARRAY, [], 'n state names (default x1..xn).'),

@@ -33,7 +33,10 @@ every event it drops:
   pairing rule: the input of the interval ending at measurement ``k`` is the latest one
   stamped at or before measurement ``k-1`` (``InputHistory.index_at``), so a future
   input never leaks into the past; a measurement whose input may still be on its way waits
-  until an input stamped at or after the previous measurement arrives, or a flush.
+  until an input stamped at or after the previous measurement arrives, or a flush. With a
+  feedthrough (:attr:`EventEngine.pairs_at_stamp`) the consumer also needs the input in
+  effect at the measurement's own stamp (the same rule at that stamp), so the measurement
+  waits for an input stamped at or after it.
 
 Several measurement sources and late measurements (the history). Each
 :class:`~observer_ros.core.sources.MeasurementSource` names the outputs it carries; its
@@ -304,6 +307,9 @@ class EventEngine:
         self.measurement_sources = measured
         self.keeps_history = self.history_ns > 0 or len(measured) > 1
         self.entries: list = []
+        #: None, or a list that collects each entry leaving the history (its estimate final:
+        #: no later sample re-runs it), oldest first: the in-order estimates of a replay.
+        self.retired: Optional[list] = None
         self._base_ns: Optional[int] = None  # the last entry pruned: the first one's previous
         self._floor_ns: Optional[int] = None  # a restart: nothing before it is inserted
         self.per_source = {source.name: Counter() for source in measured}
@@ -321,6 +327,12 @@ class EventEngine:
         #: A model without inputs (m = 0): no measurement waits, none is short of an input.
         self.autonomous = n_inputs == 0
         self.inputs_absent = self.autonomous
+        #: A row also uses the input held at its own stamp (a model with a feedthrough ``D``:
+        #: ``D u`` with the input in effect at the measurement), so a measurement waits for
+        #: an input stamped at or after its own stamp (or a flush), and with a history a
+        #: late input re-runs the rows from the first stamped at or after it (set by the
+        #: consumer).
+        self.pairs_at_stamp = False
 
     # --- arrival ---------------------------------------------------------------------------
 
@@ -384,7 +396,8 @@ class EventEngine:
             # Not while a backward jump (a looping bag) is under way; with a history, keep
             # the inputs of its rows.
             self.inputs.prune(self._oldest_previous() if self.keeps_history else previous)
-        if self.keeps_history and previous is not None and stamp_ns < previous:
+        if self.keeps_history and previous is not None and (
+                stamp_ns < previous or self.pairs_at_stamp and stamp_ns == previous):
             return self._rerun_for_input(stamp_ns) + self.process(force=False)
         return self.process(force=False)
 
@@ -408,7 +421,7 @@ class EventEngine:
         if not self.queue:  # the common case: the queue's routine for a queue of one
             previous = self.consumer.stamp_ns
             if (previous is not None and in_sequence(stamp_ns - previous, self.max_gap_ns)
-                    and self.ready(previous)):
+                    and self.ready(stamp_ns if self.pairs_at_stamp else previous)):
                 produced = self.consumer.take(Row(source, stamp_ns, vector,
                                                   self.input_for(previous),
                                                   stamp_ns - previous, int(arrival_ns)))
@@ -481,6 +494,8 @@ class EventEngine:
                 interval = 0
             else:
                 previous = self.consumer.stamp_ns
+                if self.pairs_at_stamp and not (force or self.ready(event.stamp_ns)):
+                    break  # D u: the input in effect at this stamp may still be on its way
                 if previous is not None and in_sequence(event.stamp_ns - previous,
                                                         self.max_gap_ns):
                     u = self._interval_input(previous, force)
@@ -532,7 +547,7 @@ class EventEngine:
         if step < 0:  # inputs of the abandoned timeline must not pair with the new one
             self.inputs.drop_after(stamp)
         if self.keeps_history:  # nothing before the restart is re-run
-            self.entries.clear()
+            self._retire(len(self.entries))
             self._base_ns, self._floor_ns = None, stamp
         self.events.append((kind, f'time jumped by {step / 1e9:.3f} s; the estimator '
                             f'restarts from this sample'))
@@ -596,7 +611,7 @@ class EventEngine:
             raise
         entry.result = produced[-1] if produced else None
         if self.consumer.stamp_ns is None:  # the consumer restarted from its initial state
-            self.entries.clear()
+            self._retire(len(self.entries))
             self._base_ns = self._floor_ns = None
         return produced
 
@@ -671,9 +686,16 @@ class EventEngine:
         A row's input is the one held at its previous stamp, so an input stamped
         ``stamp_ns`` changes the rows whose previous stamp lies between it and the next
         input: they are taken again from the first. Nothing to do in the usual case, an
-        input stamped at or after the newest measurement.
+        input stamped at or after the newest measurement. With :attr:`pairs_at_stamp` (a
+        feedthrough) a row also uses the input held at its own stamp, so the re-run starts
+        at the first row stamped at or after the input, if that input is held there.
         """
         entries = self.entries
+        if self.pairs_at_stamp and entries and stamp_ns <= entries[-1].stamp_ns:
+            index = bisect.bisect_left(entries, stamp_ns, key=lambda entry: entry.stamp_ns)
+            if self.inputs.stamps[self.inputs.index_at(entries[index].stamp_ns)] == stamp_ns:
+                self.counters['input_reruns'] += 1
+                return self._run_again(index, None)
         if not entries or stamp_ns >= entries[-1].stamp_ns:
             return []
         if self._base_ns is not None and self._base_ns >= stamp_ns:
@@ -698,7 +720,13 @@ class EventEngine:
             drop += 1
         if drop:
             self._base_ns = entries[drop - 1].stamp_ns
-            del entries[:drop]
+            self._retire(drop)
+
+    def _retire(self, count: int) -> None:
+        """Forget the oldest ``count`` entries, collected in :attr:`retired` when it is a list."""
+        if self.retired is not None:
+            self.retired.extend(self.entries[:count])
+        del self.entries[:count]
 
     def _oldest_previous(self) -> Optional[int]:
         """Return the earliest stamp whose held input a re-run may need (the pruning point)."""
@@ -708,7 +736,7 @@ class EventEngine:
 
     def clear_history(self) -> None:
         """Forget the history (the consumer starts again: :meth:`EventStream.reset`)."""
-        self.entries.clear()
+        self._retire(len(self.entries))
         self._base_ns = self._floor_ns = None
 
     def history_depth(self) -> tuple:

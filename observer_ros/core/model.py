@@ -56,6 +56,17 @@ def _matrix_2d(parameter: str, values: Any) -> np.ndarray:
     return np.atleast_2d(matrix)
 
 
+def model_feedthrough(model: 'StateSpaceModel') -> Optional[np.ndarray]:
+    """
+    Return ``model.d`` when it has a non-zero entry, else None (the ``D = 0`` path).
+
+    Everything that handles a feedthrough asks this once, so a model with ``D = 0`` takes
+    exactly the arithmetic of a model without one.
+    """
+    d = model.d
+    return np.array(d, dtype=float) if d.size and np.any(d != 0.0) else None
+
+
 @dataclass(frozen=True)
 class StateSpaceModel:
     """

@@ -22,7 +22,7 @@ import numpy as np
 from observer_ros.core.discretize import van_loan, zero_order_hold
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.flat_matrices import covariance_from_flat, vector_from_flat
-from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.model import model_feedthrough, StateSpaceModel
 
 _CACHE_SIZE = 64
 
@@ -162,6 +162,8 @@ class PlantSimulator:
         self.input_offset = (None if input_offset is None or len(input_offset) == 0 else
                              vector_from_flat('input_offset', input_offset, model.n_inputs))
         self._cache: OrderedDict = OrderedDict()
+        #: ``D`` when it is not zero, else None (``y = C x`` exactly as without one).
+        self.feedthrough = model_feedthrough(model)
         self.elapsed = 0.0
         self.disturbance_time = float(disturbance_time)
         self._pending = (None if disturbance is None or len(disturbance) == 0
@@ -243,9 +245,7 @@ class PlantSimulator:
 
         """
         ad, bd, q_root = self._sampled(float(dt))
-        applied = self.saturate(u)
-        if self.input_offset is not None:
-            applied = applied + self.input_offset
+        applied = self.applied(u)
         self.x = ad @ self.x + bd @ applied
         if q_root is not None:
             self.x = self.x + q_root @ self.rng.standard_normal(self.model.n_states)
@@ -253,15 +253,33 @@ class PlantSimulator:
         self._apply_due_disturbance()
         return self.x
 
-    def measure(self) -> np.ndarray:
+    def applied(self, u) -> np.ndarray:
+        """Return the input the plant receives for a command ``u``: saturated, offset added."""
+        applied = self.saturate(u)
+        if self.input_offset is not None:
+            applied = applied + self.input_offset
+        return applied
+
+    def measure(self, u=None) -> np.ndarray:
         """
         Output at the current state, with measurement noise if configured.
+
+        Parameters
+        ----------
+        u : array_like, shape (m,), optional
+            The input applied at this sample (the one :meth:`step` holds next), saturated and
+            offset as :meth:`step` applies it; needed for a model with a feedthrough
+            ``D != 0`` and not used without one.
 
         Returns
         -------
         numpy.ndarray, shape (p,)
-            ``C x + v``: the feedthrough ``D u`` is not added (the runtime estimators
-            need ``D = 0``).
+            ``C x + D u + v``.
+
+        Raises
+        ------
+        ConfigError
+            Naming ``u``: missing for a model with a feedthrough.
 
         Examples
         --------
@@ -269,9 +287,17 @@ class PlantSimulator:
         >>> model = oc.StateSpaceModel.from_matrices([[-1]], [[1]], [[3]])
         >>> oc.PlantSimulator(model, initial_state=[2.0]).measure().tolist()
         [6.0]
+        >>> direct = oc.StateSpaceModel.from_matrices([[-1]], [[1]], [[3]], [[0.5]])
+        >>> oc.PlantSimulator(direct, initial_state=[2.0]).measure([4.0]).tolist()
+        [8.0]
 
         """
         y = self.model.c @ self.x
+        if self.feedthrough is not None:
+            if u is None:
+                raise ConfigError('u', 'the model has a feedthrough D != 0: give the input '
+                                  'applied at this sample')
+            y = y + self.feedthrough @ self.applied(u)
         if self.r_root is not None:
             y = y + self.r_root @ self.rng.standard_normal(self.model.n_outputs)
         return y

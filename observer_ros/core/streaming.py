@@ -39,6 +39,17 @@ returns is the corrected newest estimate, at the newest stamp, marked ``correcte
 (:class:`~observer_ros.core.estimates.SourceSample`). Samples of two sources with one stamp
 make one update with the outputs of both. See :mod:`observer_ros.core.events`.
 
+A model with a feedthrough ``D`` (:attr:`~observer_ros.core.estimators.Estimator.feedthrough`)
+measures ``y = C x + D u``: the stream takes ``D u`` off each measurement with the input in
+effect at the measurement's stamp, the engine's pairing rule applied at that stamp (the
+latest input stamped at or before it: ``EventEngine.held_input``), while the prediction
+over the interval keeps the input of the interval. A measurement waits for an input stamped
+at or after its own stamp, as it waits for the input of its interval (a flush takes the
+latest one at hand), so the live stream and a replay give the same estimates; with a
+history a late input re-runs the rows it changes. The input is then the one applied at that
+sample, stamped with it (what the plant simulator publishes on ``u``, before ``y``), not a
+command computed from the estimate. The fast paths are off with a feedthrough.
+
 When the estimator offers :class:`~observer_ros.core.estimators.SteadySteps`, the stream
 takes those fast paths where they apply (a prepared steady one-output step, a batch over a
 recording whose stamps all follow on): a private optimisation, equal bit for bit to the
@@ -55,7 +66,8 @@ import numpy as np
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.estimates import (
     EstimateSample, replay_arrays, ReplayArrays, SourceSample)
-from observer_ros.core.estimators import Estimator, Prediction, SteadySteps, SubsetUpdates
+from observer_ros.core.estimators import (
+    Estimator, Prediction, SteadySteps, SubsetUpdates, without_feedthrough)
 from observer_ros.core.events import EventEngine, INPUT, MEASUREMENT, PREDICTION
 from observer_ros.core.rules import (
     ahead_of_clock, in_sequence, rows_within, ValueLimits, within_limit)
@@ -162,12 +174,13 @@ class EventStream:
                                   input_stamped, clock_tolerance_ns, self.limits,
                                   consumer=self, sources=sources, history_ns=history_ns,
                                   output_names=output_names)
+        self.engine.pairs_at_stamp = estimator.feedthrough is not None
         self._updates: dict = {}  # outputs of a row -> outputs to update with
         self._owners: dict = {}  # output index -> its source
         if self.engine.keeps_history:
             self._check_sources(self.engine.measurement_sources, output_names)
         self._fast = (fast_paths and isinstance(estimator, SteadySteps)
-                      and not self.engine.keeps_history)
+                      and not self.engine.keeps_history and estimator.feedthrough is None)
         self._result_limit = min(self.limits.estimate, self.limits.innovation)
         self._steady = 0  # steady measurements not yet added to the counters
         self._steady_key: Optional[tuple] = None
@@ -349,13 +362,19 @@ class EventStream:
         if row.interval_ns == 0 and estimator.stamp_ns is not None:
             estimator.restart()  # a gap or a backward jump: start from the estimate held
         outputs = row.outputs
+        y = row.y
+        d = estimator.feedthrough
         if outputs is None:
-            estimate = estimator.advance(row.stamp_ns, row.y, row.u)  # checked on arrival
+            if d is not None:  # D u with the input in effect at the measurement's stamp
+                y = without_feedthrough(d, y, self.engine.held_input(row.stamp_ns))
+            estimate = estimator.advance(row.stamp_ns, y, row.u)  # checked on arrival
         else:
             update = self._updates.get(outputs)
             if update is None:
                 update = self._update_outputs(outputs)
-            estimate = estimator.advance_outputs(row.stamp_ns, row.y if update else NO_VALUES,
+            if d is not None and update:
+                y = without_feedthrough(d, y, self.engine.held_input(row.stamp_ns), update)
+            estimate = estimator.advance_outputs(row.stamp_ns, y if update else NO_VALUES,
                                                  row.u, update)
         innovation = estimator.innovation
         if not self._publishable(estimate, innovation,
@@ -545,7 +564,7 @@ class EventStream:
         samples = engine.process_recorded(measured, outputs[good])
         return replay_arrays(samples, estimator.n_states, n_outputs)
 
-    def replay_events(self, events) -> list:
+    def replay_events(self, events, causes: Optional[list] = None) -> list:
         """
         Feed recorded messages in the order given (a bag's), as live, then flush.
 
@@ -557,6 +576,8 @@ class EventStream:
         Parameters
         ----------
         events : iterable of RecordedEvent
+        causes : list, optional
+            Extended with the event that returned each estimate (None: the final flush).
 
         Returns
         -------
@@ -565,13 +586,20 @@ class EventStream:
 
         """
         samples: list = []
-        for source, stamp, values, arrival in events:
+        for event in events:
+            source, stamp, values, arrival = event
             now = int(arrival) or None
             if source == INPUT:
-                samples += self.add_input(stamp, values, now)
+                produced = self.add_input(stamp, values, now)
             else:
-                samples += self.add_measurement(stamp, values, now, int(arrival), source)
-        return samples + self.flush()
+                produced = self.add_measurement(stamp, values, now, int(arrival), source)
+            samples += produced
+            if causes is not None:
+                causes += [event] * len(produced)
+        produced = self.flush()
+        if causes is not None:
+            causes += [None] * len(produced)
+        return samples + produced
 
     def _replay_history(self, input_stamps, inputs, stamps, outputs, input_arrivals,
                         arrivals) -> ReplayArrays:

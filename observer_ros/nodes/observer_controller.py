@@ -33,7 +33,8 @@ action with anti-windup, input limits, the watchdog and safe command).
   cycle do), ``feedback.safe_command`` before the first one. It is the command after
   ``feedback.input_limits``: an actuator that saturates below them, adds an offset or applies
   a command late makes the prediction wrong (the disturbance states absorb a constant
-  error).
+  error). With a feedthrough ``D`` that command is given to the stream before the
+  measurement of the sample it is applied at, since ``D u`` needs it there.
 
 The watchdog: ``feedback.timeout`` steady-clock seconds without an estimate (no ``y``, or
 every ``y`` dropped) and the node publishes ``feedback.safe_command``, repeated every
@@ -124,6 +125,10 @@ class ObserverControllerWiring(ObserverWiring, FeedbackCommands):
             values = np.asarray(y, dtype=float)
             if within_limit(values, self.feedback_limits['y']):
                 self.integrate_measurement(stamp, values)
+        if self.commands_as_input and self.stream.estimator.feedthrough is not None:
+            # D u needs the input in effect at this stamp: the command sent before, which
+            # the plant applies from this sample on; given before the measurement.
+            self._run(self.stream.add_input, stamp, self.sent)
         self._run(self.stream.add_measurement, stamp, y, self._clock_for(stamp),
                   time.monotonic_ns())
 
@@ -133,7 +138,7 @@ class ObserverControllerWiring(ObserverWiring, FeedbackCommands):
             applied.append((sample.stamp_ns, self.sent))
             self.sent = self.command_for(sample.stamp_ns, sample.estimate)
         ObserverWiring._publish(self, samples)
-        if self.commands_as_input:
+        if self.commands_as_input and self.stream.estimator.feedthrough is None:
             # The input of the interval after each estimate, for the next prediction: given
             # once the estimate is out, so the stream prepares the next step with it.
             for stamp, command in applied:

@@ -174,10 +174,15 @@ class PlantSimulatorNode(ConfiguredNode):
         return self.safe_input, False
 
     def _publish_sample(self) -> None:
-        """Publish sample ``index`` at ``stamp_ns`` and apply the command in effect."""
-        y = self.simulator.measure()
-        self._publish_within('x_true', self.simulator.x)
+        """
+        Publish sample ``index`` at ``stamp_ns`` and apply the command in effect.
+
+        ``y = C x + D u`` with ``u`` the input applied from this sample on (published on
+        ``u`` before ``y``, with the same stamp); ``y = C x`` without a feedthrough.
+        """
         command, commanded = self._command_in_effect()
+        y = self.simulator.measure(command)
+        self._publish_within('x_true', self.simulator.x)
         applied = self.simulator.saturate(command)
         if commanded:
             if 'first_command_sample' not in self.counters:

@@ -20,11 +20,11 @@ reads the input and output topics of the bags (or folders of bags; in worker pro
 on a Dask cluster with ``--dask``), identifies ``A``, ``B``, ``C``, ``D`` by subspace
 identification (PO-MOESP) from all but the last ``--holdout`` of each recording, and prints
 the singular values to choose the order from, the poles and the fit on the held-out part
-(as MATLAB's ``compare``). ``--continuous`` converts the model to continuous time
-(zero-order hold inverted). ``-o`` writes a parameter file with the model and a Kalman filter
-to start from (``R`` the residual covariance; tune both noises with ``tune_kalman``);
-``--report DIR`` writes ``DIR/identify.html``. An error prints one line, exits with status
-2 and writes nothing.
+(as MATLAB's ``compare``). ``--feedthrough fit`` fits ``D`` too (default ``zero``).
+``--continuous`` converts the model to continuous time (zero-order hold inverted). ``-o``
+writes a parameter file with the model and a Kalman filter to start from (``R`` the
+residual covariance; tune both noises with ``tune_kalman``); ``--report DIR`` writes
+``DIR/identify.html``. An error prints one line, exits with status 2 and writes nothing.
 """
 
 import argparse
@@ -40,11 +40,14 @@ from observer_ros.bags.identification import HOLDOUT, Identification, identify_b
 from observer_ros.bags.signals import PERIOD_TOLERANCE
 from observer_ros.bags.storage import TopicRequest
 from observer_ros.config.schema import INPUT_MESSAGE_TYPES
-from observer_ros.core.tuning.subspace import order_advice
+from observer_ros.core.tuning.subspace import FEEDTHROUGH_CHOICES, order_advice
 from observer_ros.signals import stops_on_signal
 from observer_ros.tools.outputs import run_tool
 
 REPORT_NAME = 'identify'
+
+#: ``--feedthrough`` by default: ``D`` fixed at zero (see doc/nodes/identify.md for why).
+FEEDTHROUGH = 'zero'
 
 #: Process noise of the Kalman filter written with the model, relative to the trace of the
 #: residual covariance per state: a starting value for tune_kalman.
@@ -178,6 +181,9 @@ def main(args=None) -> int:
                         'TOPIC:PATH[,PATH...] (default y)')
     parser.add_argument('--continuous', action='store_true',
                         help='write the continuous model (zero-order hold inverted)')
+    parser.add_argument('--feedthrough', choices=FEEDTHROUGH_CHOICES, default=FEEDTHROUGH,
+                        help=f'fit D by least squares, or fix it at zero (default '
+                        f'{FEEDTHROUGH}: a plant sampled behind a zero-order hold has none)')
     parser.add_argument('--holdout', type=float, default=HOLDOUT,
                         help=f'fraction held out at the end of each recording (default '
                         f'{HOLDOUT})')
@@ -205,7 +211,7 @@ def _run(options) -> int:
         with task_mapper(options.workers, options.dask) as mapper:
             result = identify_bags(bags, inputs, outputs, options.order, mapper, options.holdout,
                                    options.horizon, options.continuous, options.use_log_time,
-                                   options.resample)
+                                   options.resample, options.feedthrough)
         return result, summary(result, options.order)
 
     return run_tool(

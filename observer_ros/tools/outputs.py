@@ -19,7 +19,8 @@ import sys
 from typing import Callable, Optional
 
 from observer_ros.bags.collection import expand_bags
-from observer_ros.bags.replay_outputs import check_writable_parent
+from observer_ros.bags.replay_outputs import (
+    check_writable_parent, made_directories, remove_outputs)
 from observer_ros.bags.storage import BagError
 from observer_ros.core.errors import ConfigError, DesignError
 
@@ -61,15 +62,18 @@ def run_tool(tool: str, options, compute: Callable[[list], tuple],
     Run a bag tool: check its outputs, compute, write; one error line and status 2 on failure.
 
     ``compute(bags)`` returns ``(result, text)``; ``write_output(result, text)`` writes
-    ``options.output`` (inside the error handling: a refused file is an error, not a crash);
-    ``write_report(result, text)`` writes the report and returns its path. An error with an
-    ``exit_status`` attribute exits with that status instead of 2.
+    ``options.output``; ``write_report(result, text)`` writes the report and returns its
+    path. The output paths are checked before any bag is read; the folders they need are
+    made after the work (as ``replay`` makes those of its outputs), and an output that then
+    cannot be written is an error naming its option and path that leaves nothing behind. An
+    error with an ``exit_status`` attribute exits with that status instead of 2.
 
     ``failed_checks(result)`` lists the tool's own checks that the result failed: then
     ``options.output`` is not written, a line on stderr says so and the tool exits with
     ``failed_status``, unless the option ``accept_option`` (``--accept-failed-checks``) was
     given. The report is written either way.
     """
+    written, made = [], []
     try:
         bags = checked_bags(options)
         result, text = compute(bags)
@@ -77,22 +81,39 @@ def run_tool(tool: str, options, compute: Callable[[list], tuple],
         accepted = bool(accept_option) and getattr(
             options, accept_option.lstrip('-').replace('-', '_'))
         refused = bool(failed) and not accepted
-        if options.output and not refused:
-            write_output(result, text)
+        output = options.output if not refused else None
+        made = made_directories(output, options.report and Path(options.report) / tool)
+        for directory in reversed(made):  # shallowest first
+            directory.mkdir(exist_ok=True)
+        if output:
+            _written('--output', options.output, write_output, result, text)
+            written.append(Path(options.output))
+        report = None
+        if options.report:
+            report = _written('--report', options.report, write_report, result, text)
     except (BagError, ConfigError, DesignError, ValueError, OSError) as e:
+        remove_outputs(written, made)
         print(f'{tool}: error: {e}', file=sys.stderr)
         return getattr(e, 'exit_status', ERROR_STATUS)
     print(text)
     if options.output:
         print(f'{output_label}: {options.output}' if not refused else
               f'{output_label}: not written ({accept_option} writes it anyway)')
-    if options.report:
-        print(f'report: {write_report(result, text)}')
+    if report is not None:
+        print(f'report: {report}')
     if refused:
         print(f'{tool}: failed its checks (exit status {failed_status}): '
               + '; '.join(failed), file=sys.stderr)
         return failed_status
     return 0
+
+
+def _written(option: str, path, write: Callable, result, text: str):
+    """Call ``write(result, text)``; an OSError becomes a BagError naming the option and path."""
+    try:
+        return write(result, text)
+    except OSError as e:
+        raise BagError(f'{option}: cannot write {path}: {e.strerror or e}') from e
 
 
 __all__ = ['ERROR_STATUS', 'check_file', 'check_report_directory', 'checked_bags', 'run_tool']

@@ -15,8 +15,10 @@
 """
 ``replay``: run the configured observer over a recorded bag, offline, and report.
 
-``replay BAG... PARAMS [--output BAG] [--csv FILE] [--report DIR]`` reads ``y`` and ``u``
-with their recorded stamps, writes ``x_hat`` and the innovation, and with ``--report``
+``replay BAG... PARAMS [--output BAG] [--csv FILE] [--in-order FILE] [--report DIR]`` reads
+``y`` and ``u`` with their recorded stamps, writes ``x_hat`` and the innovation (the CSV
+says what made each row, and has the covariance where the filter has one; ``--in-order``
+writes the estimates in stamp order after every late sample), and with ``--report``
 compares them with ``x_true`` (or ``--truth TOPIC``): the per-state error table, a PNG and
 ``DIR/replay.html`` (estimates against the reference, innovations with their +-2 sigma band,
 NIS with its chi-square band, innovation autocorrelation with its whiteness bounds).
@@ -44,7 +46,7 @@ from observer_ros.app.run_report import filter_run_section, HtmlReport
 from observer_ros.bags.collection import expand_bags
 from observer_ros.bags.replay import load_system, reference_rmse, replay_bag, StateReference
 from observer_ros.bags.replay_outputs import (
-    check_outputs, made_directories, remove_outputs, write_replay)
+    check_outputs, COVARIANCE_COLUMNS, made_directories, remove_outputs, write_replay)
 from observer_ros.bags.storage import BagError, STORAGES
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.evaluation import align, settling_time
@@ -78,6 +80,56 @@ def report_section(report: HtmlReport, result, truth=None) -> None:
                        None if truth is None else truth.values)
 
 
+#: Options that mean something only beside another: ``(option, attribute, needed, needed's
+#: attribute)``.
+DEPENDENT_OPTIONS = (('--settle', 'settle', '--reference', 'reference'),
+                     ('--truth', 'truth', '--report', 'report'),
+                     ('--storage', 'storage', '--output', 'output'))
+
+
+def refuse_covariance_option(options, result) -> None:
+    """Refuse ``--covariance`` without a CSV to write or a covariance to write in it."""
+    if options.covariance is None:
+        return
+    if not (options.csv or options.in_order):
+        raise ConfigError('--covariance', 'it applies to --csv and --in-order only: expected '
+                          'one of them with it, or no --covariance')
+    if result.covariances is None and options.covariance != 'none':
+        raise ConfigError('--covariance', f'the {result.system.observer.design.kind} '
+                          f'observer has no covariance to write: expected no --covariance')
+
+
+def refuse_meaningless_options(options, system) -> None:
+    """
+    Refuse an option that the configuration (or the other options) makes meaningless.
+
+    Raises
+    ------
+    ConfigError
+        Naming the option and why it would be ignored.
+
+    """
+    if options.y_topic is not None and system.observer.sources is not None:
+        topics = ', '.join(f'{settings.name}: {settings.topic}'
+                           for settings in system.observer.sources.settings)
+        raise ConfigError('--y-topic', f'the measurements are read from the topics of '
+                          f'observer.sources ({topics}; sources.<name>.topic): expected no '
+                          f'--y-topic')
+    if system.model.n_inputs == 0 and options.u_topic is not None:
+        raise ConfigError('--u-topic', 'the model has no inputs (model.B is empty): '
+                          'expected no input topic')
+    for option, attribute, needed, needed_attribute in DEPENDENT_OPTIONS:
+        if getattr(options, attribute) is not None and not getattr(options, needed_attribute):
+            raise ConfigError(option, f'it applies to {needed} only: expected {needed} with '
+                              f'it, or no {option}')
+
+
+def print_warnings(result) -> None:
+    """Print what the observer node would have warned of during the replay, on stderr."""
+    for warning in result.warnings:
+        print(f'replay: warning: {warning}', file=sys.stderr)
+
+
 def _truth_or_none(result, topic: str):
     try:
         return result.truth(topic)
@@ -105,12 +157,13 @@ def _replay_task(task: tuple) -> dict:
 def replay_many(options, bags, system) -> int:
     """Replay several bags through the task mapper; print one line each, one report."""
     for option, value in (('--output', options.output), ('--csv', options.csv),
-                          ('--reference', options.reference)):
+                          ('--in-order', options.in_order), ('--reference', options.reference),
+                          ('--covariance', options.covariance)):
         if value:
             raise ConfigError(option, f'{len(bags)} bags given: {option} takes one bag')
     if options.report:
         check_outputs(None, None, options.report)
-    tasks = [(bag, options.params, options.y_topic, options.u_topic or 'u',
+    tasks = [(bag, options.params, options.y_topic or 'y', options.u_topic or 'u',
               options.use_log_time, options.truth if options.report else None) for bag in bags]
     with task_mapper(options.workers, options.dask) as mapper:
         done = mapper(_replay_task, tasks, 'replay')
@@ -124,6 +177,7 @@ def replay_many(options, bags, system) -> int:
         print(f'{result.bag}: {len(result.outputs.values)} measurements into '
               f'{len(result.stamps_ns)} estimates in {item["elapsed"]:.3f} s; {counters}'
               f'{reference}')
+        print_warnings(result)
         if options.report:
             report_section(report, result, item['truth'])
     if options.report:
@@ -140,16 +194,31 @@ def main(args=None) -> int:
                         help='rosbag2 bag directory (MCAP or sqlite3), a storage file, or a '
                         'folder of bags (several: one line and one report section each)')
     parser.add_argument('params', help='parameter file (/**: ros__parameters:)')
-    parser.add_argument('--y-topic', default='y', help='measurement topic in the bag')
+    parser.add_argument('--y-topic', default=None,
+                        help='measurement topic in the bag (default y; none with '
+                        'observer.sources, whose topics are configured)')
     parser.add_argument('--u-topic', default=None,
                         help='input topic in the bag (default u; none for a model without '
                         'inputs)')
     parser.add_argument('--output', metavar='BAG', help='write x_hat and innovation to a new bag')
-    parser.add_argument('--storage', choices=STORAGES, default='mcap')
-    parser.add_argument('--csv', metavar='FILE', help='write stamps, x_hat and innovation')
+    parser.add_argument('--storage', choices=STORAGES, default=None,
+                        help='storage of --output (default mcap)')
+    parser.add_argument('--csv', metavar='FILE',
+                        help='write a row per published estimate: stamp, event (what made '
+                        'the row: a source, rerun, input, flush), x_hat, innovation and the '
+                        'covariance columns')
+    parser.add_argument('--in-order', metavar='FILE',
+                        help='write the estimates in stamp order after every late sample '
+                        '(the history re-run): stamp, the sources of its update, x_hat and '
+                        'the covariance columns')
+    parser.add_argument('--covariance', choices=COVARIANCE_COLUMNS, default=None,
+                        help='covariance columns of --csv and --in-order where the filter '
+                        'has a covariance (default diagonal: variance_<state>; full: '
+                        'covariance_<row>_<column>, row-major)')
     parser.add_argument('--report', metavar='DIR',
                         help='error table and DIR/replay.png against the true state')
-    parser.add_argument('--truth', default='x_true', help='true-state topic for --report')
+    parser.add_argument('--truth', default=None,
+                        help='true-state topic for --report (default x_true)')
     parser.add_argument('--reference', action='append', default=[],
                         metavar='STATE=TOPIC:FIELD:JOINT',
                         help='print the RMSE of STATE against a JointState field of one joint, '
@@ -164,6 +233,8 @@ def main(args=None) -> int:
     options = parser.parse_args(args)
     try:
         system = load_system(options.params)
+        refuse_meaningless_options(options, system)
+        options.truth = options.truth or 'x_true'
         bags = expand_bags(options.bags)
         if len(bags) > 1:
             return replay_many(options, bags, system)
@@ -174,15 +245,13 @@ def main(args=None) -> int:
     try:
         # Everything is checked (parameters, outputs, topics, truth) before anything is written.
         references = [StateReference.parse(text) for text in options.reference]
-        if system.model.n_inputs == 0 and options.u_topic is not None:
-            raise ConfigError('--u-topic', 'the model has no inputs (model.B is empty): '
-                              'expected no input topic')
-        check_outputs(options.output, options.csv, options.report)
+        check_outputs(options.output, options.csv, options.report, options.in_order)
         started = time.perf_counter()
-        result = replay_bag(options.bag, system, options.y_topic, options.u_topic or 'u',
-                            options.use_log_time)
+        result = replay_bag(options.bag, system, options.y_topic or 'y',
+                            options.u_topic or 'u', options.use_log_time)
         settle = (options.settle if options.settle is not None else
                   settling_time(system.observer.design.achieved_poles, system.model.dt))
+        refuse_covariance_option(options, result)
         rmse = [(reference, *reference_rmse(result, reference, settle))
                 for reference in references]
         elapsed = time.perf_counter() - started
@@ -199,17 +268,20 @@ def main(args=None) -> int:
     except (BagError, ConfigError, DesignError, ValueError) as e:
         print(f'replay: error: {e}', file=sys.stderr)
         return 2
-    made = made_directories(options.output, options.csv,
+    made = made_directories(options.output, options.csv, options.in_order,
                             options.report and Path(options.report) / REPORT_NAME)
     plot = options.report and Path(options.report) / f'{REPORT_NAME}.png'
     written = [] if plot is None or plot.exists() else [plot]
     try:
-        write_replay(result, options.output, options.csv, options.storage)
-        written += [Path(p) for p in (options.output, options.csv) if p is not None]
+        write_replay(result, options.output, options.csv, options.storage or 'mcap',
+                     in_order=options.in_order, covariance=options.covariance or 'diagonal')
+        written += [Path(p) for p in (options.output, options.csv, options.in_order)
+                    if p is not None]
         counters = ', '.join(f'{key} {value}' for key, value in sorted(result.counters.items()))
         print(f'replayed {len(result.outputs.values)} measurements into '
               f'{len(result.stamps_ns)} estimates in {elapsed:.3f} s '
               f'({len(result.outputs.values) / max(elapsed, 1e-9):,.0f} samples/s); {counters}')
+        print_warnings(result)
         for reference, error, count in rmse:
             print(f'{reference.state}: RMSE {error:.6g} against {reference.topic} '
                   f'{reference.field} of {reference.joint} ({count} estimates, after '

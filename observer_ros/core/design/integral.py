@@ -77,6 +77,9 @@ def augmented_pair(model: StateSpaceModel, outputs) -> tuple:
     """
     Return ``(A_a, B_a)`` of the model with the integrators of ``outputs`` appended.
 
+    The integrators take ``r - y = r - C_i x - D_i u``: with a feedthrough the rows of
+    ``B_a`` below ``B`` are ``-D_i`` (``-T D_i`` for a discrete model), else zero.
+
     Parameters
     ----------
     model : StateSpaceModel
@@ -104,7 +107,11 @@ def augmented_pair(model: StateSpaceModel, outputs) -> tuple:
     else:
         bottom = np.hstack([-c_i, np.zeros((count, count))])
     a = np.vstack([np.hstack([model.a, np.zeros((n_states, count))]), bottom])
-    b = np.vstack([model.b, np.zeros((count, model.n_inputs))])
+    d_i = model.d[list(outputs)]
+    if np.any(d_i != 0.0):  # the integrated error r - C x - D u sees the input directly
+        b = np.vstack([model.b, -model.dt * d_i if model.is_discrete else -d_i])
+    else:
+        b = np.vstack([model.b, np.zeros((count, model.n_inputs))])
     return a, b
 
 

@@ -26,7 +26,8 @@ from observer_ros.core.estimators.constant_gain import (
     ConstantGainEstimator, StepDesign, StepMatrices)
 from observer_ros.core.estimators.intervals import IntervalCache
 from observer_ros.core.estimators.protocol import (
-    Estimator, Prediction, SteadySteps, SubsetUpdates)
+    Estimator, model_feedthrough, Prediction, SteadySteps, SubsetUpdates, without_feedthrough)
 
 __all__ = ['ConstantGainEstimator', 'Estimator', 'IntervalCache', 'Prediction', 'SteadySteps',
-           'StepDesign', 'StepMatrices', 'SubsetUpdates']
+           'StepDesign', 'StepMatrices', 'SubsetUpdates', 'model_feedthrough',
+           'without_feedthrough']

@@ -32,11 +32,11 @@ import numpy as np
 
 from observer_ros.core.analysis import format_modes, pbh_lost_modes
 from observer_ros.core.discretize import transition, zero_order_hold
-from observer_ros.core.errors import ConfigError, DesignError, StampError
+from observer_ros.core.errors import DesignError, StampError
 from observer_ros.core.estimators.intervals import (
     DEFAULT_CACHE_SIZE, IntervalCache, IntervalDesigns)
 from observer_ros.core.estimators.protocol import (
-    Estimator, PinnedInitialState, Prediction, SteadySteps, SubsetUpdates)
+    Estimator, model_feedthrough, PinnedInitialState, Prediction, SteadySteps, SubsetUpdates)
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.placement import place_observer
 from observer_ros.core.poles import to_discrete
@@ -131,10 +131,6 @@ class StepDesign:
     kind = 'base'
 
     def __init__(self, model: StateSpaceModel) -> None:
-        if np.any(model.d != 0.0):
-            raise ConfigError(
-                'D', 'the runtime estimators need D = 0 (a sampled loop has no direct '
-                'feedthrough); D is used by the design tools only')
         self.model = model
 
     def step(self, dt_ns: int) -> StepMatrices:
@@ -313,8 +309,10 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Su
     Notes
     -----
     :meth:`update` takes the measurement ``y`` at ``stamp_ns`` and the input ``u`` held over
-    the interval since the previous sample. The first update (and the first after a
-    :meth:`restart`) initialises the estimate from ``y`` as described for
+    the interval since the previous sample (with a feedthrough ``D``, also the input
+    ``u_now`` in effect at ``stamp_ns``; :meth:`advance` and the fast paths take
+    ``y - D u_now``: :func:`~.protocol.without_feedthrough`). The first update (and the
+    first after a :meth:`restart`) initialises the estimate from ``y`` as described for
     ``initial_state``; its innovation is ``y - C x_prior`` with the prior the pinned initial
     state, zero, or (after a restart) the estimate held.
 
@@ -339,6 +337,7 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Su
         model = design.model
         self.n_states, self.n_inputs = model.n_states, model.n_inputs
         self.n_outputs = model.n_outputs
+        self.feedthrough = model_feedthrough(model)
         self._pinned: Optional[np.ndarray] = None
         self.initial_state = initial_state
         self.intervals = IntervalCache(self._design_step, cache_size, interval_resolution_ns)
@@ -735,6 +734,7 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Su
                 self.n_states, self.n_inputs, self.n_outputs):
             raise ValueError('replace_design: the new design has other dimensions')
         self.design = design
+        self.feedthrough = model_feedthrough(design.model)
         self.intervals.clear(recent=False)
         self._transitions.clear()
         self._prepared = None

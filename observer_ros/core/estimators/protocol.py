@@ -43,6 +43,7 @@ from typing import NamedTuple, Optional
 import numpy as np
 
 from observer_ros.core.errors import ConfigError
+from observer_ros.core.model import model_feedthrough  # noqa: F401 - re-exported
 
 
 class Prediction(NamedTuple):
@@ -95,6 +96,39 @@ def normalized_innovation_squared(innovation, covariance: np.ndarray) -> float:
         return float(innovation @ np.linalg.solve(covariance, innovation))
     except np.linalg.LinAlgError:
         return math.inf
+
+
+def without_feedthrough(d: np.ndarray, y: np.ndarray, u_now: np.ndarray,
+                        outputs: Optional[tuple] = None) -> np.ndarray:
+    """
+    Return ``y - D u_now``: what the state alone gives of a measurement (``C x``, plus noise).
+
+    The one place a feedthrough is taken off a measurement; every estimator then runs on
+    it as on a model with ``D = 0`` (innovation ``y - C x_prior - D u_now``, the reduced-order
+    and Chen reconstructions from ``y - D u_now``).
+
+    Parameters
+    ----------
+    d : numpy.ndarray, shape (p, m)
+    y : numpy.ndarray, shape (p,) or (q,)
+        Every output, or the ``outputs`` alone.
+    u_now : numpy.ndarray, shape (m,)
+        The input in effect at the measurement's stamp.
+    outputs : tuple of int, optional
+        The outputs ``y`` holds (ascending); None: every output.
+
+    Examples
+    --------
+    >>> d = np.array([[0.5], [2.0]])
+    >>> without_feedthrough(d, np.array([1.0, 1.0]), np.array([2.0])).tolist()
+    [0.0, -3.0]
+    >>> without_feedthrough(d, np.array([1.0]), np.array([2.0]), (1,)).tolist()
+    [-3.0]
+
+    """
+    if outputs is not None:
+        d = d[list(outputs)]
+    return y - d @ u_now
 
 
 class Estimator(ABC):
@@ -170,20 +204,35 @@ class Estimator(ABC):
     def initial_state(self) -> Optional[np.ndarray]:
         """The pinned initial estimate, or None when it is not pinned."""
 
-    def update(self, stamp_ns: int, y, u) -> np.ndarray:
+    #: ``D`` of the model, ``(p, m)``, when it is not zero; None: no feedthrough (``D = 0``).
+    feedthrough: Optional[np.ndarray] = None
+
+    def update(self, stamp_ns: int, y, u, u_now=None) -> np.ndarray:
         """
         Take ``y`` at ``stamp_ns`` with ``u`` held since the last sample; return the estimate.
+
+        ``u_now`` is the input in effect at ``stamp_ns`` (the one held over the next
+        interval): with a feedthrough ``D`` the measurement is ``y = C x + D u_now``, and
+        ``D u_now`` is taken off ``y`` before the update (:func:`without_feedthrough`).
+        Without a feedthrough it is not used.
 
         Raises
         ------
         StampError
             The stamp is not after the previous sample's.
         ConfigError
-            ``y`` or ``u`` has the wrong length or a non-finite entry.
+            ``y``, ``u`` or ``u_now`` has the wrong length or a non-finite entry, or
+            ``u_now`` is missing for a model with a feedthrough.
 
         """
-        return self.advance(int(stamp_ns), checked_vector('y', y, self.n_outputs),
-                            checked_vector('u', u, self.n_inputs))
+        y = checked_vector('y', y, self.n_outputs)
+        d = self.feedthrough
+        if d is not None:
+            if u_now is None:
+                raise ConfigError('u_now', 'the model has a feedthrough D != 0: give the input '
+                                  'in effect at the stamp of the measurement')
+            y = without_feedthrough(d, y, checked_vector('u_now', u_now, self.n_inputs))
+        return self.advance(int(stamp_ns), y, checked_vector('u', u, self.n_inputs))
 
     @abstractmethod
     def advance(self, stamp_ns: int, y: np.ndarray, u: np.ndarray) -> np.ndarray:

@@ -226,9 +226,14 @@ def subspace_singular_values(records: Sequence[Record], horizon: int) -> tuple:
     return values, left
 
 
+#: What :func:`identify_subspace` does with ``D``: fit it, or fix it at zero.
+FEEDTHROUGH_CHOICES = ('fit', 'zero')
+
+
 def identify_subspace(records: Sequence[Record], order: int, dt: float,
                       horizon: Optional[int] = None,
-                      input_names: Optional[Sequence[str]] = None) -> SubspaceModel:
+                      input_names: Optional[Sequence[str]] = None,
+                      feedthrough: str = 'fit') -> SubspaceModel:
     """
     Identify a discrete model of ``order`` from ``records`` (PO-MOESP, then least squares).
 
@@ -246,6 +251,10 @@ def identify_subspace(records: Sequence[Record], order: int, dt: float,
         continuous poles came within 0.3 % with 20 rows, 2 to 4 % with 10.
     input_names : sequence of str, optional
         For the no-excitation message.
+    feedthrough : {'fit', 'zero'}
+        ``fit``: ``D`` by least squares with ``B`` (``y[k] = C x[k] + D u[k]``, ``u[k]`` the
+        input in effect at sample ``k``); ``zero``: ``D = 0``, ``B`` fitted alone (a
+        strictly proper plant, the usual case behind a zero-order hold).
 
     Returns
     -------
@@ -254,8 +263,8 @@ def identify_subspace(records: Sequence[Record], order: int, dt: float,
     Raises
     ------
     ConfigError
-        Naming ``order``, ``horizon``, ``dt``, ``inputs`` (no excitation) or ``outputs``
-        (NaN).
+        Naming ``order``, ``horizon``, ``dt``, ``inputs`` (no excitation), ``outputs``
+        (NaN) or ``feedthrough``.
     DesignError
         When the identified ``A`` is not finite.
 
@@ -274,6 +283,9 @@ def identify_subspace(records: Sequence[Record], order: int, dt: float,
 
     """
     n_inputs, n_outputs = _check_records(records)
+    if feedthrough not in FEEDTHROUGH_CHOICES:
+        raise ConfigError('feedthrough', f'expected one of {", ".join(FEEDTHROUGH_CHOICES)}, '
+                          f'got {feedthrough!r}')
     if not (isinstance(order, (int, np.integer)) and order >= 1):
         raise ConfigError('order', f'expected an integer of at least 1, got {order!r}')
     if not dt > 0:
@@ -301,7 +313,7 @@ def identify_subspace(records: Sequence[Record], order: int, dt: float,
             f'cannot give. Identify from open-loop data that excite the plant (in a closed '
             f'loop the input follows the noise and biases the subspace estimate), try another '
             f'order, or stabilise the plant first', 'order')
-    b, d, initial = _input_matrices(a, c, records)
+    b, d, initial = _input_matrices(a, c, records, feedthrough == 'fit')
     return SubspaceModel(a, b, c, d, float(dt), values, tuple(initial), horizon)
 
 
@@ -330,28 +342,29 @@ def _input_responses(a, c, inputs) -> np.ndarray:
     return np.einsum('pi,kij->kpj', c, states)
 
 
-def _input_matrices(a, c, records) -> tuple:
-    """Least squares for ``B``, ``D`` and one initial state per record."""
+def _input_matrices(a, c, records, fit_d: bool = True) -> tuple:
+    """Least squares for ``B``, ``D`` (``fit_d``, else zero) and one initial state per record."""
     n_states, n_outputs = len(a), c.shape[0]
     n_inputs = records[0].inputs.shape[1]
     n_initial = n_states * len(records)
-    width = n_states * n_inputs + n_outputs * n_inputs + n_initial
+    n_d = n_outputs * n_inputs if fit_d else 0
+    width = n_states * n_inputs + n_d + n_initial
     rows, targets = [], []
     for index, record in enumerate(records):
         count = len(record.inputs)
         block = np.zeros((count, n_outputs, width))
         block[:, :, :n_states * n_inputs] = _input_responses(a, c, record.inputs)
-        for j in range(n_inputs):
+        for j in range(n_inputs if fit_d else 0):
             for i in range(n_outputs):
                 block[:, i, n_states * n_inputs + i * n_inputs + j] = record.inputs[:, j]
-        start = n_states * n_inputs + n_outputs * n_inputs + index * n_states
+        start = n_states * n_inputs + n_d + index * n_states
         block[:, :, start:start + n_states] = _free_responses(a, c, count)
         rows.append(block.reshape(-1, width))
         targets.append(record.outputs.reshape(-1))
     solution = np.linalg.lstsq(np.vstack(rows), np.concatenate(targets), rcond=None)[0]
     b = solution[:n_states * n_inputs].reshape(n_inputs, n_states).T
-    d = solution[n_states * n_inputs:n_states * n_inputs + n_outputs * n_inputs].reshape(
-        n_outputs, n_inputs)
+    d = (solution[n_states * n_inputs:n_states * n_inputs + n_d].reshape(n_outputs, n_inputs)
+         if fit_d else np.zeros((n_outputs, n_inputs)))
     initial = [solution[width - n_initial + k * n_states:width - n_initial + (k + 1) * n_states]
                for k in range(len(records))]
     return b, d, initial
@@ -474,6 +487,6 @@ def order_advice(values, order: int, noise_floor_ratio: float = 10.0) -> str:
     return text
 
 
-__all__ = ['Record', 'SubspaceModel', 'check_excitation', 'estimate_initial_state',
-           'fit_percent', 'identify_subspace', 'order_advice', 'subspace_singular_values',
-           'to_continuous', 'validate']
+__all__ = ['FEEDTHROUGH_CHOICES', 'Record', 'SubspaceModel', 'check_excitation',
+           'estimate_initial_state', 'fit_percent', 'identify_subspace', 'order_advice',
+           'subspace_singular_values', 'to_continuous', 'validate']

@@ -47,7 +47,7 @@ from observer_ros.core.discretize import transition
 from observer_ros.core.errors import ConfigError, StampError
 from observer_ros.core.estimators.intervals import IntervalCache, IntervalDesigns
 from observer_ros.core.estimators.protocol import (
-    Estimator, PinnedInitialState, Prediction, SubsetUpdates)
+    Estimator, model_feedthrough, PinnedInitialState, Prediction, SubsetUpdates)
 from observer_ros.core.flat_matrices import covariance_from_flat
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.units import NANOSECONDS
@@ -78,7 +78,8 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
     Parameters
     ----------
     model : StateSpaceModel
-        Needs ``D = 0``.
+        A feedthrough ``D`` is taken off each measurement first (:meth:`update` with
+        ``u_now``; :func:`~observer_ros.core.estimators.protocol.without_feedthrough`).
     process_noise : array_like, shape (n, n)
         ``Q``: the intensity of a continuous model, the per-sample covariance of a discrete
         one.
@@ -108,9 +109,8 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
     def __init__(self, model: StateSpaceModel, process_noise, measurement_noise,
                  initial_covariance=None, initial_state=None,
                  interval_resolution_ns: int = 0) -> None:
-        if np.any(model.d != 0.0):
-            raise ConfigError('D', 'the runtime estimators need D = 0')
         self.model = model
+        self.feedthrough = model_feedthrough(model)
         self.n_states, self.n_inputs = model.n_states, model.n_inputs
         self.n_outputs = model.n_outputs
         n = self.n_states
@@ -362,6 +362,7 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
                 self.n_states, self.n_inputs, self.n_outputs):
             raise ValueError('adopt: the other filter has other dimensions')
         self.model = other.model
+        self.feedthrough = other.feedthrough
         self.process_noise, self.measurement_noise = other.process_noise, other.measurement_noise
         self._c_row, self._r_value = other._c_row, other._r_value
         self._subsets = {}
