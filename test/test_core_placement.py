@@ -286,9 +286,9 @@ def test_lost_complex_modes_are_listed():
     report = observability(a, c)
     assert report.rank == 1
     assert sorted(report.lost_modes, key=lambda z: z.imag) == pytest.approx([1 - 2j, 1 + 2j])
-    with pytest.raises(DesignError, match=r'1\+2j') as info:
+    # The message names the pair once, as the docs write it.
+    with pytest.raises(DesignError, match=r'the modes 1±2j cannot be seen'):
         require_observable(a, c)
-    assert '1-2j' in str(info.value)
 
 
 @pytest.mark.parametrize('poles', [[-1, -2], [-1, -2, -3, -4], []])

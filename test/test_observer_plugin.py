@@ -118,6 +118,17 @@ def test_its_own_arguments_are_checked_by_the_schema(plugin_path, tmp_path):
     assert 'observer.beta: alpha = 1 and beta = 2 do not' in result.stderr
 
 
+def test_a_type_without_the_angles_capability_refuses_angles(plugin_path, tmp_path):
+    angles = tmp_path / 'angles.yaml'
+    angles.write_text(CONFIG.read_text().replace(
+        '      output_names: [position]\n',
+        '      output_names: [position]\n      angle_outputs: [position]\n'))
+    result = _run(plugin_path, 'design_observer', str(angles))
+    assert result.returncode == 2
+    assert ('model.angle_outputs: the alpha_beta observer cannot keep angles'
+            in result.stderr), result.stderr
+
+
 def _cart(index: int) -> float:
     return POSITION + VELOCITY * index * PERIOD_NS / 1e9
 

@@ -36,7 +36,7 @@ from typing import Iterable, Mapping, Optional, Sequence
 
 import numpy as np
 
-from observer_ros.core.analysis import format_modes, observability
+from observer_ros.core.analysis import format_modes, observability, observability_problem
 from observer_ros.core.consistency import NisWindow
 from observer_ros.core.units import NANOSECONDS
 
@@ -353,7 +353,8 @@ def unstable(poles, discrete: bool) -> bool:
 
 def configuration_check(model, observer_kind: Optional[str], observer_poles,
                         feedback_poles=None, closed_loop_poles=None,
-                        notes: Sequence[str] = (), extra: Sequence[tuple] = ()) -> Check:
+                        notes: Sequence[str] = (), extra: Sequence[tuple] = (),
+                        detectable: bool = False) -> Check:
     """
     Return the configuration status of a node's validated design.
 
@@ -372,6 +373,9 @@ def configuration_check(model, observer_kind: Optional[str], observer_poles,
         Warnings of the validation (an unstable controller): each is a :data:`WARN`.
     extra : sequence of (str, object)
         More values to show.
+    detectable : bool
+        The observer needs only the modes that do not decay seen (its type's capability
+        ``needs_observable`` is false: a Kalman filter); the one observability rule decides.
 
     """
     report = observability(model.a, model.c)
@@ -384,9 +388,11 @@ def configuration_check(model, observer_kind: Optional[str], observer_poles,
     if observer_kind is not None:
         values += [('observer_type', observer_kind),
                    ('observer_poles', poles_text(observer_poles))]
-        if not report.full_rank:
-            findings.append((ERROR, f'(A, C) is not observable: the modes '
-                             f'{format_modes(report.lost_modes)} cannot be seen'))
+        problem = observability_problem(model.a, model.c, detectable=detectable,
+                                        discrete=discrete,
+                                        state_names=model.state_names or None)
+        if problem is not None:
+            findings.append((ERROR, problem))
         if observer_poles is not None and len(observer_poles) and unstable(observer_poles,
                                                                            discrete):
             findings.append((ERROR, 'the observer is unstable: a pole is on or beyond the '

@@ -99,6 +99,7 @@ def write_run_report(directory: str, name: str, system, truth_stamps, truth, sta
     common, truth, estimates = align(truth_stamps, truth, stamps, estimates)
     if not len(common):
         raise ValueError('x_true and x_hat share no stamp: nothing to compare')
+    estimates = system.observer.angles.states_near(estimates, truth)  # errors, not turns
     dt = system.model.dt
     poles = system.observer.design.achieved_poles
     report = error_report(common, truth, estimates, system.model.state_names,

@@ -256,6 +256,7 @@ class ReplayResult:
         truth = self.truth(topic)
         _, reference, estimate = align(truth.stamps_ns, truth.values, self.stamps_ns,
                                        self.estimates)
+        estimate = self.system.observer.angles.states_near(estimate, reference)
         return np.linalg.norm(reference - estimate, axis=1)
 
 

@@ -45,6 +45,8 @@ from typing import Optional
 import numpy as np
 
 from observer_ros.config.sections import ModelSection
+from observer_ros.config.values import indices
+from observer_ros.core.angles import Angles, check_angles
 from observer_ros.core.disturbances import augment, DisturbanceModel
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.flat_matrices import vector_from_flat
@@ -52,6 +54,16 @@ from observer_ros.core.model import StateSpaceModel
 
 #: The reason a disturbance setting is refused for a model without disturbances.
 NO_DISTURBANCES = 'the model has no disturbances (model.disturbances); leave it empty'
+
+
+def _angles(section: ModelSection, model: StateSpaceModel) -> Angles:
+    """Return ``model.angle_states`` and ``model.angle_outputs`` checked against ``model``."""
+    binding = section.binding()
+    states = indices(binding['angle_states'], section.angle_states, model.state_names, 'state')
+    outputs = indices(binding['angle_outputs'], section.angle_outputs, model.output_names,
+                      'output')
+    with binding.charged(binding['angle_states']):
+        return check_angles(model, states, outputs)
 
 
 @dataclass(frozen=True)
@@ -65,11 +77,16 @@ class Augmentation:
         The plant of ``model.A`` ... ``model.D`` (what ``feedback.*`` is designed for).
     disturbance : DisturbanceModel or None
         The disturbances and the augmented model; None without ``model.disturbances``.
+    angles : Angles
+        ``model.angle_states`` and ``model.angle_outputs`` of the model (plant states keep
+        their indices in the augmented model), checked by
+        :func:`~observer_ros.core.angles.check_angles`.
 
     """
 
     plant: StateSpaceModel
     disturbance: Optional[DisturbanceModel] = None
+    angles: Angles = Angles()
 
     @classmethod
     def read(cls, section: ModelSection) -> 'Augmentation':
@@ -96,12 +113,12 @@ class Augmentation:
                 if getattr(section, argument):
                     raise ConfigError(binding[argument], 'given without model.disturbances; '
                                       'list the disturbance kinds there or leave it empty')
-            return cls(plant)
+            return cls(plant, angles=_angles(section, plant))
         with binding.charged(binding['disturbances']):
-            return cls(plant, augment(plant, section.disturbances, section.disturbance_entries,
-                                      section.disturbance_matrix,
-                                      section.disturbance_frequencies,
-                                      section.disturbance_names))
+            disturbance = augment(plant, section.disturbances, section.disturbance_entries,
+                                  section.disturbance_matrix, section.disturbance_frequencies,
+                                  section.disturbance_names)
+        return cls(plant, disturbance, _angles(section, disturbance.augmented))
 
     @property
     def model(self) -> StateSpaceModel:

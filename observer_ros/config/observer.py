@@ -34,8 +34,9 @@ designed once and cached, rounded to ``observer.interval_resolution``
 (:class:`~observer_ros.core.estimators.StepDesign`).
 """
 
+from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Optional
+from typing import Iterator, Optional
 
 import numpy as np
 
@@ -44,8 +45,9 @@ from observer_ros.config.sections import (
     Binding, JointStatesSection, ModelSection, ObserverSection, Sections)
 from observer_ros.config.sources import check_history, measurement_sources, SourcesSetup
 from observer_ros.config.values import check_inside, indices
+from observer_ros.core.angles import Angles
 from observer_ros.core.design.common import ObserverDesign
-from observer_ros.core.errors import ConfigError
+from observer_ros.core.errors import ConfigError, UnobservableError
 from observer_ros.core.estimators import Estimator
 from observer_ros.core.flat_matrices import vector_from_flat
 from observer_ros.core.model import StateSpaceModel
@@ -133,6 +135,8 @@ class DesignedObserver:
         ``observer.sources`` and ``sources.<name>.*`` (None: one source, ``topics.y``).
     history_ns : int
         ``observer.history``.
+    angles : Angles
+        ``model.angle_states`` and ``model.angle_outputs`` (checked against the model).
 
     """
 
@@ -144,6 +148,7 @@ class DesignedObserver:
     design_source: str
     sources: Optional[SourcesSetup] = None
     history_ns: int = 0
+    angles: Angles = Angles()
 
 
 def observer_design(sections: Sections, augmentation: Augmentation) -> DesignedObserver:
@@ -172,7 +177,8 @@ def observer_design(sections: Sections, augmentation: Augmentation) -> DesignedO
         if kind.vet is not None:
             kind.vet(model, given)
         arguments = {name: given[name] for name in kind.argument_names()}
-        design = kind.design(model, arguments, augmentation.disturbance)
+        with _naming_sources(sources, model):
+            design = kind.design(model, arguments, augmentation.disturbance)
     _check_interval_resolution(section, model)
     initial_state = None
     if section.initial_state:
@@ -180,8 +186,29 @@ def observer_design(sections: Sections, augmentation: Augmentation) -> DesignedO
                                          model.n_states)
         check_inside(binding['initial_state'], initial_state, sections.topics['x_hat'].limit,
                      'topics.x_hat.limit')
+    angles = augmentation.angles
+    if angles and not kind.capabilities.angles:
+        parameter = binding['angle_outputs' if angles.outputs else 'angle_states']
+        raise ConfigError(parameter, f'the {kind.name} observer cannot keep angles (its type '
+                          f'has no capability angles); expected none, or another observer.type')
     return DesignedObserver(kind, arguments, design, initial_state, binding, design_source,
-                            sources, history_ns)
+                            sources, history_ns, angles)
+
+
+@contextmanager
+def _naming_sources(sources: Optional[SourcesSetup], model: StateSpaceModel) -> Iterator[None]:
+    """Say which measurement sources carry the outputs that leave a mode unseen."""
+    try:
+        yield
+    except UnobservableError as e:
+        if sources is None:
+            raise
+        carried = ', '.join(
+            f'{source.name!r} (outputs {[model.output_names[k] for k in source.outputs]})'
+            for source in sources.sources)
+        which = (f'source {carried}' if len(sources.sources) == 1
+                 else f'sources {carried} together')
+        raise UnobservableError(f'{which}: {e.reason}') from e
 
 
 def _with_source_noise(given: dict, sources: Optional[SourcesSetup], kind: ObserverType,
@@ -251,6 +278,8 @@ class ObserverSetup:
         The measurement sources (None: one, ``topics.y``, with every output).
     history_ns : int
         ``observer.history`` in nanoseconds.
+    angles : Angles
+        ``model.angle_states`` and ``model.angle_outputs``, given to the estimator.
 
     """
 
@@ -270,6 +299,7 @@ class ObserverSetup:
     design_source: str
     sources: Optional[SourcesSetup] = None
     history_ns: int = 0
+    angles: Angles = Angles()
 
     @classmethod
     def of(cls, result: DesignedObserver, sections: Sections,
@@ -285,7 +315,7 @@ class ObserverSetup:
                    _ns(section.interval_resolution), _ns(section.max_gap),
                    _ns(section.clock_tolerance), _ns(section.input_wait), section.publish_rate,
                    limits, topics['u'].stamped, joint_states, result.binding,
-                   result.design_source, result.sources, result.history_ns)
+                   result.design_source, result.sources, result.history_ns, result.angles)
 
     @property
     def form(self) -> str:
@@ -326,8 +356,10 @@ class ObserverSetup:
 
         """
         try:
-            return make_estimator(self.design, self.initial_state, self.interval_resolution_ns,
-                                  values=self.arguments)
+            estimator = make_estimator(self.design, self.initial_state,
+                                       self.interval_resolution_ns, values=self.arguments)
+            estimator.keep_angles(self.angles)
+            return estimator
         except ConfigError as e:
             raise self.binding.error(e, self.design_source) from e
 

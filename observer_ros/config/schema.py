@@ -173,6 +173,14 @@ MODEL = (
     _spec('model.state_names', STRING_ARRAY, [], 'n state names (default x1..xn).'),
     _spec('model.input_names', STRING_ARRAY, [], 'm input names (default u1..um).'),
     _spec('model.output_names', STRING_ARRAY, [], 'p output names (default y1..yp).'),
+    _spec('model.angle_states', STRING_ARRAY, [], 'States that are angles (names, or 0-based '
+          'indices), kept in (-pi, pi] after every update and prediction; each must only '
+          'integrate (its column of A zero, the unit column for a discrete model) and reach '
+          'only angle outputs, a whole number of times. Empty: none.'),
+    _spec('model.angle_outputs', STRING_ARRAY, [], 'Outputs that are angles (names, or 0-based '
+          'indices), a heading from a quaternion for instance: their innovations are '
+          'wrapped to (-pi, pi], so a measurement crossing +-pi moves the estimate by the '
+          'small step it made. Empty: none.'),
     _spec('model.disturbances', STRING_ARRAY, [], 'Disturbance waveforms, one per disturbance: '
           'constant (1 state) | ramp (2 states: value, rate) | sinusoid (2 states: value, '
           'rate); the observers estimate the plant augmented with their states (README, '

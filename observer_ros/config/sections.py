@@ -269,6 +269,8 @@ class ModelSection(Section):
     state_names: list = bound('model.state_names')
     input_names: list = bound('model.input_names')
     output_names: list = bound('model.output_names')
+    angle_states: list = bound('model.angle_states')
+    angle_outputs: list = bound('model.angle_outputs')
     disturbances: list = bound('model.disturbances')
     disturbance_entries: list = bound('model.disturbance_entries')
     disturbance_matrix: list = bound('model.disturbance_matrix')

@@ -35,7 +35,12 @@ Model
 Analysis
     :func:`observability`, :func:`controllability`, :class:`RankReport`,
     :func:`observability_matrix`, :func:`controllability_matrix`, :func:`pbh_lost_modes`,
-    :func:`require_observable`, :func:`require_controllable`.
+    :func:`require_observable`, :func:`require_controllable`, and the one observability
+    rule every design asks: :func:`observability_problem`, :func:`unseen_modes`,
+    :class:`UnseenMode`.
+Angles
+    :class:`Angles`, :func:`check_angles`, :func:`wrap_angles`: outputs and states on a
+    circle, wrapped to ``(-pi, pi]`` by every built-in estimator (``keep_angles``).
 Poles
     :func:`parse_poles`, :func:`parse_pole`, :func:`damping_pair`, :func:`clean_poles`,
     :func:`sort_poles`, :func:`is_stable`, :func:`to_discrete`,
@@ -82,6 +87,7 @@ Tuning from recordings (:mod:`observer_ros.core.tuning`)
     :class:`SubspaceModel`, :func:`fit_percent`, :func:`to_continuous`.
 Errors
     :class:`ObserverRosError`, :class:`ConfigError`, :class:`DesignError`,
+    :class:`UnobservableError`,
     :class:`StampError`.
 
 Examples
@@ -119,7 +125,7 @@ import importlib
 #: Where each public name lives, by module (names are imported on first use).
 _EXPORTS = {
     'observer_ros.core.errors': (
-        'ObserverRosError', 'ConfigError', 'DesignError', 'StampError'),
+        'ObserverRosError', 'ConfigError', 'DesignError', 'UnobservableError', 'StampError'),
     'observer_ros.core.model': ('StateSpaceModel',),
     'observer_ros.core.discretize': ('zero_order_hold', 'van_loan', 'transition'),
     'observer_ros.core.arguments': ('Argument',),
@@ -128,7 +134,8 @@ _EXPORTS = {
     'observer_ros.core.analysis': (
         'RankReport', 'observability', 'controllability', 'observability_matrix',
         'controllability_matrix', 'pbh_lost_modes', 'require_observable',
-        'require_controllable'),
+        'require_controllable', 'observability_problem', 'unseen_modes', 'UnseenMode'),
+    'observer_ros.core.angles': ('Angles', 'check_angles', 'wrap_angles'),
     'observer_ros.core.poles': (
         'parse_poles', 'parse_pole', 'damping_pair', 'clean_poles', 'is_stable',
         'to_discrete', 'slowest_allowed_pole', 'poles_meeting_error_spec'),

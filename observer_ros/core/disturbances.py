@@ -48,7 +48,7 @@ from typing import Optional, Sequence
 import numpy as np
 from scipy.linalg import expm
 
-from observer_ros.core.analysis import format_modes, pbh_lost_modes
+from observer_ros.core.analysis import format_modes, observability_problem, pbh_lost_modes
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.flat_matrices import matrix_from_flat
 from observer_ros.core.model import StateSpaceModel
@@ -444,10 +444,11 @@ def _check_resonance(model: StateSpaceModel, disturbances) -> None:
 
 def _check_observable(model: StateSpaceModel, disturbances, e_matrix) -> None:
     """Name the first disturbance that makes the augmented pair unobservable."""
-    lost_plant = pbh_lost_modes(model.a, model.c)
-    if lost_plant:
-        raise ConfigError('disturbances', f'the plant itself is unobservable (modes '
-                          f'{format_modes(lost_plant)}); no disturbance can be estimated')
+    problem = observability_problem(model.a, model.c, discrete=model.is_discrete,
+                                    state_names=model.state_names or None,
+                                    consequence='; no disturbance can be estimated')
+    if problem is not None:
+        raise ConfigError('disturbances', f'the plant itself: {problem}')
     variable = 'z' if model.is_discrete else 's'
     for count in range(1, len(disturbances) + 1):
         chosen = disturbances[:count]

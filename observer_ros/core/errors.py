@@ -146,6 +146,23 @@ class DesignError(ObserverRosError, ValueError):
         return type(self), (self.reason, self.parameter)
 
 
+class UnobservableError(DesignError):
+    """
+    A mode that no output sees (that does not decay, for a Kalman filter) refuses a design.
+
+    Raised by :func:`observer_ros.core.analysis.require_observable`, the one observability
+    rule; a :class:`DesignError` without a ``parameter``, so that the configuration layer may
+    add which measurement sources carry the outputs.
+
+    Examples
+    --------
+    >>> import observer_ros.core as oc
+    >>> isinstance(oc.UnobservableError('(A, C) is not observable'), oc.DesignError)
+    True
+
+    """
+
+
 class StampError(ObserverRosError, ValueError):
     """
     A sample's time stamp is not usable (not after the previous one).

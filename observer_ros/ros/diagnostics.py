@@ -206,7 +206,8 @@ class NodeHealth:
             system.model, None if observer is None else observer.kind.name,
             None if observer is None else observer.design.achieved_poles,
             None if feedback is None else feedback.design.achieved_poles,
-            system.loop.closed_loop_poles, system.loop.notes, extra)
+            system.loop.closed_loop_poles, system.loop.notes, extra,
+            detectable=observer is not None and not observer.kind.capabilities.needs_observable)
         self._configuration = (system, check)
         return check
 

@@ -148,6 +148,7 @@ def _replay_task(task: tuple) -> dict:
     if truth is not None:
         _, reference, estimate = align(truth.stamps_ns, truth.values, result.stamps_ns,
                                        result.estimates)
+        estimate = result.system.observer.angles.states_near(estimate, reference)
         if len(reference):
             error = float(np.sqrt(np.mean(np.sum((reference - estimate) ** 2, axis=1))))
     result.system = None  # the worker's System stays there: the arrays go back

@@ -30,7 +30,7 @@ from typing import Optional
 
 import numpy as np
 
-from observer_ros.core.analysis import format_modes, pbh_lost_modes
+from observer_ros.core.analysis import observability_problem
 from observer_ros.core.discretize import transition, zero_order_hold
 from observer_ros.core.errors import DesignError, StampError
 from observer_ros.core.estimators.intervals import (
@@ -203,17 +203,19 @@ class StepDesign:
         subset.model = outputs_model(self.model, outputs)
         return subset
 
-    def unseen_modes(self, outputs: tuple, growing_only: bool = False) -> str:
+    def observability_problem(self, outputs: tuple, detectable: bool,
+                              consequence: str) -> Optional[str]:
         """
-        Return the modes of ``A`` that ``outputs`` cannot see, as text (empty: none).
+        Say which modes ``outputs`` alone cannot see (None: none), by the one rule.
 
-        ``growing_only``: only those that do not decay (an undetectable subset).
+        :func:`observer_ros.core.analysis.observability_problem` for these rows of ``C``;
+        ``detectable``: only the modes that do not decay count (a Kalman filter).
         """
         model = self.model
-        lost = pbh_lost_modes(model.a, model.c[list(outputs)])
-        if growing_only:
-            lost = [mode for mode in lost if not decaying(mode, model.is_discrete)]
-        return format_modes(lost) if len(lost) else ''
+        return observability_problem(
+            model.a, model.c[list(outputs)], detectable=detectable,
+            discrete=model.is_discrete, state_names=model.state_names or None,
+            what='(A, C) of these outputs', seen_from='them', consequence=consequence)
 
 
 def outputs_model(model: StateSpaceModel, outputs: tuple) -> StateSpaceModel:
@@ -224,12 +226,6 @@ def outputs_model(model: StateSpaceModel, outputs: tuple) -> StateSpaceModel:
                    d=np.ascontiguousarray(model.d[index]).reshape(rows, model.n_inputs),
                    output_names=tuple(model.output_names[k] for k in index)
                    if model.output_names else ())
-
-
-def decaying(mode: complex, discrete: bool) -> bool:
-    """Whether an eigenvalue decays (inside the unit circle, or in the open left half-plane)."""
-    margin = 1e-9 * max(1.0, abs(mode))
-    return abs(mode) < 1.0 - margin if discrete else mode.real < -margin
 
 
 class PredictOnlyStep(StepDesign):
@@ -443,6 +439,8 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Su
             return Prediction(0, np.array(estimate, dtype=float), covariance)
         ad, bd, qd = self._transitions.peek(interval_ns)
         predicted = ad @ estimate + bd @ np.asarray(u, dtype=float)
+        if self.angles is not None:
+            self.angles.keep(predicted)
         if covariance is not None and qd is not None:
             covariance = ad @ covariance @ ad.T + qd
             covariance = 0.5 * (covariance + covariance.T)
@@ -508,7 +506,12 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Su
         else:
             known = self._known_part(step, u)
         self._prepared = None
-        result = known + output_term(step, y)
+        angles = self.angles
+        if angles is None:
+            result = known + output_term(step, y)
+        else:  # y moved by whole turns to the predicted branch (-known[n:] is C x_prior)
+            result = known + output_term(step, angles.near(y, -known[n:]))
+            angles.keep(result[:n])
         self._result = result
         self._x = result[:n]
         self._innovation = result[n:]
@@ -525,10 +528,15 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Su
         """
         prior = self._start
         c = design.model.c
+        angles = self.angles
+        if angles is not None:
+            y = angles.near(y, c @ prior, self._subset_outputs(design))
         if self._start_pinned or not len(c):
             self._x = design.initial_estimate(prior, y)
         else:
             self._x = least_norm_consistent(c, prior, y)
+        if angles is not None:
+            self._x = angles.keep(np.array(self._x, dtype=float))
         self._innovation = y - c @ prior
         self._result = None
         self._stamp = stamp_ns
@@ -540,6 +548,27 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Su
         buffer[:n] = self._x
         buffer[n:] = u
         return step.g_known @ buffer
+
+    def keep_angles(self, angles) -> None:
+        """
+        Wrap the innovations of angle outputs and keep angle states in ``(-pi, pi]``.
+
+        Each update moves an angle output by whole turns to the branch of its prediction
+        ``C x_prior`` (so its innovation is wrapped) and wraps the angle states of the new
+        estimate; predictions wrap them too. Any constant-gain observer may: a model that
+        :func:`~observer_ros.core.angles.check_angles` accepts is unchanged by a whole turn
+        of an angle state, and the observer, exact for consistent data, follows it.
+        The steady fast paths are then left for the general one.
+        """
+        self.angles = angles if angles else None
+        self._prepared = None
+
+    def _subset_outputs(self, design: StepDesign) -> Optional[tuple]:
+        """Return the outputs of a subset's design (None: every output)."""
+        for outputs, (subset, _) in self._subsets.items():
+            if subset is design:
+                return outputs
+        return None
 
     def several_sources_problem(self) -> Optional[str]:
         """Say why the step design takes no several sources (None: it does)."""
@@ -586,8 +615,14 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Su
             raise StampError(
                 f'stamp {stamp_ns} ns is not after the previous sample ({self._stamp} ns)')
         step = cache.get(dt_ns)
-        result = self._known_part(step, u) + output_term(step, y)
         n = self.n_states
+        known = self._known_part(step, u)
+        angles = self.angles
+        if angles is None:
+            result = known + output_term(step, y)
+        else:
+            result = known + output_term(step, angles.near(y, -known[n:], outputs))
+            angles.keep(result[:n])
         self._result = result
         self._x = result[:n]
         self._innovation = result[n:]
@@ -608,7 +643,7 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Su
         within the second.
         """
         step = self.intervals.last
-        if self._stamp is None or step is None:
+        if self._stamp is None or step is None or self.angles is not None:
             return
         prepared = self._prepared
         if prepared is not None and prepared[0] is self._x and prepared[1] is u:
@@ -634,7 +669,8 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Su
         is then untouched.
         """
         prepared = self._prepared
-        if (prepared is None or prepared[5] is None or prepared[0] is not self._x
+        if (self.angles is not None or prepared is None or prepared[5] is None
+                or prepared[0] is not self._x
                 or prepared[1] is not u or stamp_ns - self._stamp != prepared[4]
                 or prepared[2] is not self.intervals.last):
             return None
@@ -664,6 +700,11 @@ class ConstantGainEstimator(IntervalDesigns, PinnedInitialState, SteadySteps, Su
         n, m = self.n_states, self.n_inputs
         results = np.empty((count, n + self.n_outputs))
         if count == 0:
+            return results[:, :n], results[:, n:]
+        if self.angles is not None:  # angles wrap each step: the general path, row by row
+            for k in range(count):
+                results[k, :n] = self.advance(int(stamps_ns[k]), outputs[k], inputs[k])
+                results[k, n:] = self._innovation
             return results[:, :n], results[:, n:]
         results[0, :n] = self.advance(int(stamps_ns[0]), outputs[0], inputs[0])
         results[0, n:] = self._innovation

@@ -285,6 +285,28 @@ class Estimator(ABC):
         estimate, the stamps (and a covariance) go on, so ``x_hat`` does not jump.
         """
 
+    #: The :class:`~observer_ros.core.angles.Angles` kept (:meth:`keep_angles`); None: none.
+    angles = None
+
+    def keep_angles(self, angles) -> None:
+        """
+        Wrap the innovations of angle outputs and keep angle states in ``(-pi, pi]``.
+
+        ``angles``: :class:`~observer_ros.core.angles.Angles` checked against the model
+        (:func:`~observer_ros.core.angles.check_angles`). This default refuses any: an
+        estimator that can keep them overrides it.
+
+        Raises
+        ------
+        ConfigError
+            ``angle_outputs`` (or ``angle_states``): this estimator cannot keep angles.
+
+        """
+        if angles:
+            raise ConfigError('angle_outputs' if angles.outputs else 'angle_states',
+                              f'this estimator ({type(self).__name__}) cannot wrap angles; '
+                              f'expected none')
+
     def recent_intervals(self) -> list:
         """Return the last few distinct sample intervals (ns) designed for (default: none)."""
         return []

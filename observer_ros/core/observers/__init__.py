@@ -86,6 +86,15 @@ class Capabilities:
         their own rates: its estimator offers
         :class:`~observer_ros.core.estimators.SubsetUpdates` (an update from the outputs
         that arrived). A type without it refuses a configuration of several sources.
+    angles : bool
+        Its estimator keeps angles (``keep_angles``: innovations of angle outputs wrapped,
+        angle states kept in ``(-pi, pi]``, :mod:`observer_ros.core.angles`); a type
+        without it refuses ``model.angle_states`` and ``model.angle_outputs``.
+    needs_observable : bool
+        Its design needs every mode seen by the outputs (pole placement). False: only the
+        modes that do not decay (a Kalman filter, for which a detectable pair suffices);
+        the one observability rule (:func:`~observer_ros.core.analysis.observability_problem`)
+        is asked either way.
     disturbance_arguments : tuple of str
         Its arguments that only apply to a model with ``model.disturbances`` (refused
         without), which the type itself consumes from the disturbance transform it is
@@ -102,6 +111,8 @@ class Capabilities:
     needs_every_output: bool = True
     linear_realization: bool = False
     several_sources: bool = False
+    needs_observable: bool = True
+    angles: bool = False
     disturbance_arguments: tuple = ()
 
 

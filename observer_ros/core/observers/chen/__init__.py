@@ -82,6 +82,6 @@ def _pinned(design, values):
 TYPE = ObserverType(
     NAME, "Chen's reduced-order observer (Sylvester equation)", POLE_ARGUMENTS + (SEED,),
     design=_design, estimator=_estimator, report=_report,
-    capabilities=Capabilities(covariance=False, needs_every_output=True,
+    capabilities=Capabilities(covariance=False, angles=True, needs_every_output=True,
                               linear_realization=True, several_sources=False),
     priority=300, charged=charged_poles_or_gain, pinned=_pinned)

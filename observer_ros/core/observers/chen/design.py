@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from observer_ros.core.analysis import format_modes, pbh_lost_modes, require_observable
+from observer_ros.core.analysis import format_modes, pbh_lost_modes, require_seen
 from observer_ros.core.design.common import (
     ObserverDesign, ObserverRealization, require_stable_poles)
 from observer_ros.core.errors import ConfigError, DesignError
@@ -402,7 +402,7 @@ def design_chen(model: StateSpaceModel, poles, gain=None,
             'poles', f'a Chen observer of this model has order n - p = {n_reduced}: '
             f'expected {n_reduced} poles, got {poles.size}')
     require_stable_poles(poles, model.is_discrete, 'poles')
-    require_observable(model.a, model.c)
+    require_seen(model)
     if gain is None:
         _require_separated(model.a, np.diag(poles))
         # (F, L) is controllable by construction: a left eigenvector w of F with w L = 0

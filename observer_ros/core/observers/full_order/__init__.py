@@ -50,6 +50,6 @@ TYPE = ObserverType(
     NAME, 'Luenberger observer of order n', POLE_ARGUMENTS + (FORM,),
     design=_design, estimator=_estimator,
     # An update from some outputs: the pair (A, C_subset) designed per subset of sources.
-    capabilities=Capabilities(covariance=False, needs_every_output=False,
+    capabilities=Capabilities(covariance=False, angles=True, needs_every_output=False,
                               linear_realization=True, several_sources=True),
     priority=500, charged=charged_poles_or_gain, pinned=pinned_gain)

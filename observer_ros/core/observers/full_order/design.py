@@ -17,7 +17,7 @@
 
 import numpy as np
 
-from observer_ros.core.analysis import require_observable
+from observer_ros.core.analysis import require_seen
 from observer_ros.core.design.common import (
     check_given_gain_stable, ObserverDesign, predictor_realization, require_stable_poles)
 from observer_ros.core.errors import ConfigError
@@ -89,7 +89,7 @@ def design_full_order(model: StateSpaceModel, poles=None, gain=None,
         raise ConfigError('poles', 'expected the observer poles or a gain, got neither')
     poles = np.asarray(poles, dtype=complex)
     require_stable_poles(poles, model.is_discrete, 'poles')
-    require_observable(model.a, model.c)
+    require_seen(model)
     result = place_observer(model.a, model.c, poles, method)
     return ObserverDesign(
         kind='full_order', model=model, gain=result.gain,

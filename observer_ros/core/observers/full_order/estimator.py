@@ -29,6 +29,7 @@ from typing import Optional
 
 import numpy as np
 
+from observer_ros.core.analysis import require_seen
 from observer_ros.core.design.common import ObserverDesign
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.estimators.constant_gain import place_sampled, StepDesign, StepMatrices
@@ -69,6 +70,7 @@ class FullOrderStep(StepDesign):
     def design_step(self, ad, bd, dt) -> StepMatrices:
         """Place ``eig((I - M C) Ad)`` at the discrete poles and assemble the step."""
         c = self.model.c
+        require_seen(self.model, a=ad)  # the one rule, for this interval's sampled A
         poles = self.discrete_poles(self.poles, dt)
         if self.filter_gain is not None:
             gain = self.filter_gain
@@ -88,8 +90,6 @@ class FullOrderStep(StepDesign):
         problem = self.several_sources_problem()
         if problem is not None:
             return problem
-        unseen = self.unseen_modes(outputs)
-        if unseen:
-            return (f'(A, C) of these outputs is not observable: the modes {unseen} cannot be '
-                    f'seen from them, so no observer of them alone can place its poles')
-        return None
+        return self.observability_problem(
+            outputs, detectable=False,
+            consequence=', so no observer of them alone can place its poles')

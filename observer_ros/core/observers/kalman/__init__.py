@@ -129,7 +129,8 @@ TYPE = ObserverType(
     NAME, 'Kalman filter (steady-state, or time-varying with observer.time_varying)',
     (PROCESS_NOISE, MEASUREMENT_NOISE, DISTURBANCE_NOISE, TIME_VARYING, INITIAL_COVARIANCE,
      FORM), design=_design, estimator=_estimator, report=_report, vet=_vet,
-    capabilities=Capabilities(covariance=True, needs_every_output=False,
+    capabilities=Capabilities(covariance=True, angles=True, needs_every_output=False,
                               linear_realization=True, several_sources=True,
+                              needs_observable=False,
                               disturbance_arguments=('disturbance_noise',)),
     priority=200, charged=_charged)

@@ -33,6 +33,7 @@ from typing import Optional
 import numpy as np
 import scipy.linalg
 
+from observer_ros.core.analysis import boundary_margin, decays, require_seen
 from observer_ros.core.design.common import ObserverDesign, predictor_realization
 from observer_ros.core.discretize import van_loan, zero_order_hold
 from observer_ros.core.errors import ConfigError, DesignError
@@ -176,11 +177,13 @@ def discrete_kalman(model: StateSpaceModel, q: np.ndarray, r: np.ndarray,
 
     """
     a = model.a if a is None else a
+    require_seen(model, detectable=True, a=a)
     covariance, filter_gain, residual = _dare(a, model.c, q, r)
     gain = a @ filter_gain
     filtered = (np.eye(model.n_states) - filter_gain @ model.c) @ covariance
     poles = sort_poles(np.linalg.eigvals(a - gain @ model.c))
-    if np.abs(poles).max() >= 1.0 or residual > 1e-8:
+    margin = boundary_margin(a)
+    if not all(decays(pole, True, margin) for pole in poles) or residual > 1e-8:
         raise DesignError(
             f'the discrete Kalman design is not stabilizing or not accurate (largest pole '
             f'modulus {np.abs(poles).max():.6g}, Riccati residual {residual:.2g})')
@@ -215,7 +218,9 @@ def design_kalman(model: StateSpaceModel, process_noise, measurement_noise) -> K
         Naming ``process_noise`` or ``measurement_noise``: wrong sizes, asymmetric or
         indefinite covariances.
     DesignError
-        No stabilizing Riccati solution (undetectable pair, for instance).
+        An undetectable pair (:class:`~observer_ros.core.errors.UnobservableError`: a mode
+        no output sees that does not decay, named with its states), or no stabilizing
+        Riccati solution.
 
     Examples
     --------
@@ -232,6 +237,9 @@ def design_kalman(model: StateSpaceModel, process_noise, measurement_noise) -> K
     q, r = noise_matrices(model, process_noise, measurement_noise)
     if model.is_discrete:
         return discrete_kalman(model, q, r)
+    # The one rule first: the CARE may return an unseen integrator at -3.5e-16, which a
+    # test against the boundary itself would take for a decaying pole.
+    require_seen(model, detectable=True)
     try:
         covariance = scipy.linalg.solve_continuous_are(model.a.T, model.c.T, q, r)
     except (np.linalg.LinAlgError, ValueError) as e:
@@ -241,7 +249,8 @@ def design_kalman(model: StateSpaceModel, process_noise, measurement_noise) -> K
                        - gain @ r @ gain.T)
     residual = float(np.linalg.norm(residual_matrix) / max(1.0, np.linalg.norm(covariance)))
     poles = sort_poles(np.linalg.eigvals(model.a - gain @ model.c))
-    if poles.real.max() >= 0.0 or residual > 1e-8:
+    margin = boundary_margin(model.a)
+    if not all(decays(pole, False, margin) for pole in poles) or residual > 1e-8:
         raise DesignError(
             f'the continuous Kalman design is not stabilizing or not accurate (rightmost pole '
             f'{poles.real.max():.6g}, Riccati residual {residual:.2g})')

@@ -61,12 +61,9 @@ class KalmanStep(StepDesign):
 
     def subset_problem(self, outputs: tuple) -> Optional[str]:
         """Say why ``outputs`` alone have no steady filter: modes unseen and not decaying."""
-        unseen = self.unseen_modes(outputs, growing_only=True)
-        if unseen:
-            return (f'(A, C) of these outputs is not detectable: the modes {unseen} cannot be '
-                    f'seen from them and do not decay, so no steady-state Kalman filter of '
-                    f'them alone exists')
-        return None
+        return self.observability_problem(
+            outputs, detectable=True,
+            consequence=', so no steady-state Kalman filter of them alone exists')
 
     def for_outputs(self, outputs: tuple) -> 'KalmanStep':
         """Return the step design of these outputs: their rows of ``C``, their block of ``R``."""

@@ -43,6 +43,7 @@ from typing import Optional
 
 import numpy as np
 
+from observer_ros.core.analysis import require_seen
 from observer_ros.core.discretize import transition
 from observer_ros.core.errors import ConfigError, StampError
 from observer_ros.core.estimators.intervals import IntervalCache, IntervalDesigns
@@ -92,6 +93,16 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
     interval_resolution_ns : int
         Round intervals to multiples of this before sampling the model (0: exact).
 
+    Raises
+    ------
+    UnobservableError
+        A mode no output sees that does not decay (the one rule,
+        :func:`~observer_ros.core.analysis.require_seen`): its covariance would grow
+        without bound.
+    ConfigError
+        ``D`` not zero, ``process_noise``, ``measurement_noise`` or ``initial_covariance``
+        of the wrong size or not a covariance.
+
     Examples
     --------
     >>> import numpy as np
@@ -109,6 +120,7 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
     def __init__(self, model: StateSpaceModel, process_noise, measurement_noise,
                  initial_covariance=None, initial_state=None,
                  interval_resolution_ns: int = 0) -> None:
+        require_seen(model, detectable=True)  # the one rule: P would grow without bound
         self.model = model
         self.feedthrough = model_feedthrough(model)
         self.n_states, self.n_inputs = model.n_states, model.n_inputs
@@ -262,9 +274,25 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
 
     def advance(self, stamp_ns: int, y: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Take a sample whose values are checked already; return ``x[k|k]``."""
-        self._measure(*self._prior(stamp_ns, u), y)
+        x_prior, p_prior = self._prior(stamp_ns, u)
+        angles = self.angles
+        if angles is None:
+            self._measure(x_prior, p_prior, y)
+        else:  # y moved by whole turns to the predicted branch: the innovation is wrapped
+            self._measure(x_prior, p_prior, angles.near(y, self.model.c @ x_prior))
+            self._x = angles.keep(np.array(self._x, dtype=float))
         self._stamp = stamp_ns
         return self._x
+
+    def keep_angles(self, angles) -> None:
+        """
+        Wrap the innovations of angle outputs and keep angle states in ``(-pi, pi]``.
+
+        Each update moves an angle output by whole turns to the branch of its prediction
+        ``C x-`` (the innovation is then wrapped) and wraps the angle states of ``x[k|k]``;
+        predictions wrap them too. ``P`` is unchanged by a whole turn.
+        """
+        self.angles = angles if angles else None
 
     def _prior(self, stamp_ns: int, u: np.ndarray) -> tuple:
         """``(x-, P-)`` at ``stamp_ns``: the prior, or the estimate predicted over the interval."""
@@ -296,7 +324,14 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
         """
         if len(outputs) == self.n_outputs:
             return self.advance(stamp_ns, y, u)
-        self._measure(*self._prior(stamp_ns, u), y, self._rows(outputs))
+        x_prior, p_prior = self._prior(stamp_ns, u)
+        rows = self._rows(outputs)
+        angles = self.angles
+        if angles is None:
+            self._measure(x_prior, p_prior, y, rows)
+        else:
+            self._measure(x_prior, p_prior, angles.near(y, rows[0] @ x_prior, outputs), rows)
+            self._x = angles.keep(np.array(self._x, dtype=float))
         self._stamp = stamp_ns
         return self._x
 
@@ -307,8 +342,10 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
             return Prediction(0, np.array(estimate, dtype=float), covariance)
         ad, bd, qd = self.intervals.peek(interval_ns)
         p = ad @ covariance @ ad.T + qd
-        return Prediction(0, ad @ estimate + bd @ np.asarray(u, dtype=float),
-                          0.5 * (p + p.T))
+        predicted = ad @ estimate + bd @ np.asarray(u, dtype=float)
+        if self.angles is not None:
+            self.angles.keep(predicted)
+        return Prediction(0, predicted, 0.5 * (p + p.T))
 
     @property
     def last_interval_ns(self) -> int:

@@ -66,6 +66,6 @@ TYPE = ObserverType(
     NAME, 'reduced-order observer of order n - p (Ogata)',
     POLE_ARGUMENTS + (COORDINATES_ARGUMENT,), design=_design, estimator=_estimator,
     report=_report,
-    capabilities=Capabilities(covariance=False, needs_every_output=True,
+    capabilities=Capabilities(covariance=False, angles=True, needs_every_output=True,
                               linear_realization=True, several_sources=False),
     priority=400, charged=charged_poles_or_gain, pinned=pinned_gain)

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from observer_ros.core.analysis import observability_matrix, require_observable
+from observer_ros.core.analysis import observability_matrix, require_seen
 from observer_ros.core.design.common import (
     check_given_gain_stable, ObserverDesign, ObserverRealization, require_stable_poles)
 from observer_ros.core.errors import ConfigError, DesignError
@@ -273,7 +273,7 @@ def design_reduced_order(model: StateSpaceModel, poles=None, gain=None,
                 f'a reduced-order observer of this model has order n - p = {n_reduced}: '
                 f'expected {n_reduced} poles, got {poles.size}')
         require_stable_poles(poles, model.is_discrete, 'poles')
-        require_observable(model.a, model.c)
+        require_seen(model)
         result = place_observer(blocks.abb, blocks.aab, poles, method)
         gain, achieved = result.gain, result.achieved_poles
         requested, method_used, residual = result.requested_poles, result.method, result.residual
