@@ -237,7 +237,8 @@ def _interpolated(bag, topic: str, data, stamps: np.ndarray) -> np.ndarray:
 
 def bag_signals(bag: str, inputs: Sequence[SignalSpec], outputs: Sequence[SignalSpec],
                 use_log_time: bool = False,
-                resample_rate: Union[None, str, float] = None) -> BagSignals:
+                resample_rate: Union[None, str, float] = None,
+                tool: str = 'identify') -> BagSignals:
     """
     Read and pair one bag's inputs and outputs; the task of one worker.
 
@@ -245,6 +246,7 @@ def bag_signals(bag: str, inputs: Sequence[SignalSpec], outputs: Sequence[Signal
     instead of its header stamps. With ``resample_rate`` (Hz, or ``'auto'`` for the median
     measurement interval) the records are put onto a uniform grid (:func:`resample`); output
     topics stamped unlike the first are then linearly interpolated at its stamps first.
+    ``tool`` is the command the time-base advice names.
 
     Raises
     ------
@@ -267,7 +269,7 @@ def bag_signals(bag: str, inputs: Sequence[SignalSpec], outputs: Sequence[Signal
     for request, item in zip(requests, input_data):
         check_time_bases(output_data[0], item, gap_ns, str(bag), requests[len(inputs)].topic,
                          request.topic,
-                         'use log times for both (identify --use-log-time)')
+                         f'use log times for both ({tool} --use-log-time)')
     keep = np.ones(len(stamps), dtype=bool)
     values = [output_data[0].values]
     for request, item in zip(requests[len(inputs) + 1:], output_data[1:]):

@@ -324,8 +324,8 @@ def reference_rmse(result: 'ReplayResult', reference: StateReference,
 
 
 def replay_data(bag, system: Configuration, outputs: TopicData, inputs: TopicData,
-                use_log_time: bool = False, y_topic: str = 'y',
-                u_topic: str = 'u') -> 'ReplayResult':
+                use_log_time: bool = False, y_topic: str = 'y', u_topic: str = 'u',
+                log_time_advice: str = '') -> 'ReplayResult':
     """
     Run the observer of ``system`` over measurements and inputs already read from ``bag``.
 
@@ -333,8 +333,8 @@ def replay_data(bag, system: Configuration, outputs: TopicData, inputs: TopicDat
     readers of other topics run:
     ``tune_kalman --inputs/--outputs`` reads them by field path
     (:func:`observer_ros.bags.signals.read_signals`). The stamps are checked for one time
-    base (:func:`check_time_bases`) unless ``use_log_time``, which stamps both with their
-    log times.
+    base (:func:`check_time_bases`, its advice ``log_time_advice`` when given) unless
+    ``use_log_time``, which stamps both with their log times.
     """
     setup = system.observer
     max_gap_ns, input_stamped = setup.max_gap_ns, setup.input_stamped
@@ -342,7 +342,8 @@ def replay_data(bag, system: Configuration, outputs: TopicData, inputs: TopicDat
         outputs, inputs, input_stamped = log_timed(outputs), log_timed(inputs), False
     else:
         check_time_bases(outputs, inputs, max_gap_ns, str(bag), absolute_topic(y_topic),
-                         absolute_topic(u_topic))
+                         absolute_topic(u_topic), *([log_time_advice] if log_time_advice
+                                                    else []))
     stream = setup.make_stream()
     stream.input_stamped = input_stamped
     stream.engine.retired = []

@@ -67,6 +67,9 @@ SAMPLES_PER_LAG = 50
 #: Default number of tuning passes (estimate, run the tuned filter, estimate again).
 ITERATIONS = 2
 
+#: What a refusal of two time bases tells to do.
+LOG_TIME_ADVICE = 'use log times for both (tune_kalman --use-log-time)'
+
 #: ``Q`` counts as zero when no entry exceeds this fraction of the largest entry of ``R``.
 ZERO_PROCESS_NOISE = 1e-12
 
@@ -258,7 +261,8 @@ def chosen_data(bag: str, system, choice: SignalChoice, y_topic: str, u_topic: s
         raise ConfigError('--inputs', f'the model has no inputs; got '
                           f'{spec_text(inputs[0])}')
     if choice.resample:
-        paired = bag_signals(bag, inputs, outputs, choice.use_log_time, choice.resample)
+        paired = bag_signals(bag, inputs, outputs, choice.use_log_time, choice.resample,
+                             'tune_kalman')
         _width('--inputs', inputs, paired.input_topics, paired.inputs.shape[1],
                model.n_inputs, model.input_names)
         _width('--outputs', outputs, paired.output_topics, paired.outputs.shape[1],
@@ -313,7 +317,8 @@ def bag_innovations(bag: str, parameters: dict, y_topic: str = 'y', u_topic: str
         outputs, inputs, breaks = chosen_data(bag, system, choice, y_topic, u_topic)
         result = replay_data(bag, system, outputs, inputs, choice.use_log_time,
                              choice.outputs[0].topic if choice.outputs else y_topic,
-                             choice.inputs[0].topic if choice.inputs else u_topic)
+                             choice.inputs[0].topic if choice.inputs else u_topic,
+                             LOG_TIME_ADVICE)
     else:
         breaks = np.zeros(0, np.int64)
         result = replay_bag(bag, system, y_topic, u_topic, choice.use_log_time)
