@@ -55,7 +55,7 @@ def declared(kinds=('exec_depend', 'depend')) -> set:
 
 
 def imports() -> dict:
-    """``{module: [(path, line, at module level)]}`` of every import in observer_ros."""
+    """Return ``{module: [(path, line, at module level)]}`` of every import in observer_ros."""
     found: dict = {}
     for path in sorted((REPOSITORY / 'observer_ros').rglob('*.py')):
         tree = ast.parse(path.read_text(encoding='utf-8'))

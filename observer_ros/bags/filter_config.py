@@ -216,8 +216,10 @@ def load_kalman_setup(path) -> KalmanSetup:
                           'output at each sample (one y topic); with measurement sources an '
                           'update sees only some outputs and the autocovariances of the '
                           'innovations do not follow one model: remove observer.sources and '
-                          'record the outputs on one topic, or tune the measurement_noise of '
-                          'each source from its own recording')
+                          'give the outputs with tune_kalman --outputs TOPIC:PATH[,PATH...] '
+                          '(several topics when stamped together, or resampled onto one grid '
+                          'with --resample), or tune the measurement_noise of each source '
+                          'from its own recording')
     return KalmanSetup(str(path), _document(path), parameters, system)
 
 

@@ -323,6 +323,40 @@ def reference_rmse(result: 'ReplayResult', reference: StateReference,
     return float(np.sqrt(np.mean((truth - estimate) ** 2))), len(stamps)
 
 
+def replay_data(bag, system: Configuration, outputs: TopicData, inputs: TopicData,
+                use_log_time: bool = False, y_topic: str = 'y', u_topic: str = 'u',
+                log_time_advice: str = '') -> 'ReplayResult':
+    """
+    Run the observer of ``system`` over measurements and inputs already read from ``bag``.
+
+    What :func:`replay_bag` does without measurement sources (its second half), and what
+    readers of other topics run:
+    ``tune_kalman --inputs/--outputs`` reads them by field path
+    (:func:`observer_ros.bags.signals.read_signals`). The stamps are checked for one time
+    base (:func:`check_time_bases`, its advice ``log_time_advice`` when given) unless
+    ``use_log_time``, which stamps both with their log times.
+    """
+    setup = system.observer
+    max_gap_ns, input_stamped = setup.max_gap_ns, setup.input_stamped
+    if use_log_time:
+        outputs, inputs, input_stamped = log_timed(outputs), log_timed(inputs), False
+    else:
+        check_time_bases(outputs, inputs, max_gap_ns, str(bag), absolute_topic(y_topic),
+                         absolute_topic(u_topic), *([log_time_advice] if log_time_advice
+                                                    else []))
+    stream = setup.make_stream()
+    stream.input_stamped = input_stamped
+    stream.engine.retired = []
+    result = stream.replay(inputs.stamps_ns, inputs.values, outputs.stamps_ns, outputs.values,
+                           inputs.log_times_ns, outputs.log_times_ns)
+    labels = _stamp_events(result.stamps_ns)
+    return ReplayResult(system, str(bag), result.stamps_ns, result.estimates,
+                        result.innovations, outputs, inputs, dict(stream.counters),
+                        use_log_time, result.covariances, result.innovation_covariances,
+                        result.nis, stream_warnings(stream, str(bag), y_topic, u_topic),
+                        labels, _in_order(stream, result, labels))
+
+
 def load_system(parameters: Union[str, os.PathLike, Configuration]) -> Configuration:
     """
     Return the validated system of a parameter file (or ``parameters`` itself).
@@ -661,24 +695,7 @@ def replay_bag(bag: Union[str, os.PathLike],
     else:
         outputs, inputs = read_topics(bag, [topic_request(system, 'y', y_topic),
                                             topic_request(system, 'u', u_topic)])
-    setup = system.observer
-    max_gap_ns, input_stamped = setup.max_gap_ns, setup.input_stamped
-    if use_log_time:
-        outputs, inputs, input_stamped = log_timed(outputs), log_timed(inputs), False
-    else:
-        check_time_bases(outputs, inputs, max_gap_ns, str(bag), absolute_topic(y_topic),
-                         absolute_topic(u_topic))
-    stream = setup.make_stream()
-    stream.input_stamped = input_stamped
-    stream.engine.retired = []
-    result = stream.replay(inputs.stamps_ns, inputs.values, outputs.stamps_ns, outputs.values,
-                           inputs.log_times_ns, outputs.log_times_ns)
-    labels = _stamp_events(result.stamps_ns)
-    return ReplayResult(system, str(bag), result.stamps_ns, result.estimates,
-                        result.innovations, outputs, inputs, dict(stream.counters),
-                        use_log_time, result.covariances, result.innovation_covariances,
-                        result.nis, stream_warnings(stream, str(bag), y_topic, u_topic),
-                        labels, _in_order(stream, result, labels))
+    return replay_data(bag, system, outputs, inputs, use_log_time, y_topic, u_topic)
 
 
 def _cause_events(samples: list, causes: list, sources: dict) -> np.ndarray:

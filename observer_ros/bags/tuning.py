@@ -37,9 +37,12 @@ from typing import Callable, Optional, Sequence
 import numpy as np
 
 from observer_ros.bags.filter_config import KalmanSetup, system_of
-from observer_ros.bags.replay import replay_bag
-from observer_ros.bags.storage import BagError
-from observer_ros.core.errors import ConfigError
+from observer_ros.bags.identification import bag_signals
+from observer_ros.bags.replay import replay_bag, replay_data
+from observer_ros.bags.signals import PERIOD_TOLERANCE, read_signals, SignalSpec
+from observer_ros.bags.storage import BagError, TopicData
+from observer_ros.config.schema import topic_names
+from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.rules import in_sequence
 from observer_ros.core.tuning.als import (
     AlsResult, autocovariance_least_squares, NoiseStructure, SampledFilter)
@@ -61,11 +64,67 @@ WHITENESS_LAGS = 20
 #: Pooled samples needed per lag (after burn-in): fewer is "too short for the lag count".
 SAMPLES_PER_LAG = 50
 
-#: Sample intervals may differ from the bag's median by this fraction (ALS takes one period).
-PERIOD_TOLERANCE = 0.02
-
 #: Default number of tuning passes (estimate, run the tuned filter, estimate again).
 ITERATIONS = 2
+
+#: What a refusal of two time bases tells to do.
+LOG_TIME_ADVICE = 'use log times for both (tune_kalman --use-log-time)'
+
+#: ``Q`` counts as zero when no entry exceeds this fraction of the largest entry of ``R``.
+ZERO_PROCESS_NOISE = 1e-12
+
+#: Exit status of ``tune_kalman`` when the tuning failed its own checks (innovations not
+#: white after tuning, a zero ``Q``) and ``--accept-failed-checks`` was not given; errors
+#: exit with 2.
+FAILED_CHECKS_STATUS = 3
+
+
+def zero_process_noise(estimate: AlsResult) -> bool:
+    """Whether the estimated ``Q`` is zero (:data:`ZERO_PROCESS_NOISE` of ``R``)."""
+    scale = float(np.max(np.abs(estimate.measurement_noise), initial=0.0))
+    return float(np.max(np.abs(estimate.process_noise), initial=0.0)) <= \
+        ZERO_PROCESS_NOISE * max(scale, np.finfo(float).tiny)
+
+
+def zero_q_advice(state_names: Sequence[str]) -> str:
+    """Say what to do when ``Q`` came out zero."""
+    first = state_names[-1] if state_names else '0'
+    return (f'give Q a floor where the plant is driven by noise (--known '
+            f'"Q[{first},{first}]=VALUE", VALUE a variance you believe), estimate a full Q '
+            f'(--process-structure full), check the model (identify another order), or '
+            f'record longer with more excitation')
+
+
+class TunedFilterError(DesignError):
+    """
+    The tuned filter cannot be made or run; the tuning failed its checks.
+
+    ``exit_status`` is :data:`FAILED_CHECKS_STATUS`: ``tune_kalman`` exits with it.
+    """
+
+    exit_status = FAILED_CHECKS_STATUS
+
+    def __init__(self, estimate: AlsResult, state_names: Sequence[str], cause: Exception):
+        q = np.array2string(np.asarray(estimate.process_noise), precision=4,
+                            separator=', ').replace('\n', '')
+        r = np.array2string(np.asarray(estimate.measurement_noise), precision=4,
+                            separator=', ').replace('\n', '')
+        if zero_process_noise(estimate):
+            reason = (f'tuning failed its checks: the estimated Q (observer.process_noise) '
+                      f'came out zero (R = {r}): the innovations show no process noise '
+                      f'beyond R, so the tuned filter would trust the model alone, and the '
+                      f'tuned filter fails: {cause}. Nothing written (--accept-failed-checks '
+                      f'cannot help: the nodes refuse this filter). What to do: '
+                      f'{zero_q_advice(state_names)}')
+        else:
+            reason = (f'tuning failed its checks: the tuned filter (Q = {q}, R = {r}) fails: '
+                      f'{cause}. Nothing written. A Q this small for the model is near zero: '
+                      f'{zero_q_advice(state_names)}')
+        super().__init__(reason)
+
+    def __reduce__(self):
+        """Pickle as a plain DesignError of the same text (worker processes)."""
+        return DesignError, (self.reason, self.parameter)
 
 
 @dataclass(frozen=True)
@@ -118,10 +177,131 @@ def _finite(bag: str, role: str, values: np.ndarray, stamps: np.ndarray) -> None
                        f'cut the recording: tuning needs every sample')
 
 
+@dataclass(frozen=True)
+class SignalChoice:
+    """
+    What to read of each bag instead of the parameter file's ``y`` and ``u`` topics.
+
+    Attributes
+    ----------
+    inputs, outputs : tuple of SignalSpec
+        Read as ``identify`` reads them (:func:`observer_ros.bags.signals.read_signals`);
+        empty: the file's ``topics.u`` / ``topics.y`` on the ``u`` / ``y`` topic.
+    use_log_time : bool
+        Stamp every topic with its log times.
+    resample : str or None
+        A rate in Hz, or ``auto``: the measurements put onto a uniform grid as ``identify
+        --resample`` puts them (inputs zero-order held, outputs linearly interpolated).
+
+    """
+
+    inputs: tuple = ()
+    outputs: tuple = ()
+    use_log_time: bool = False
+    resample: Optional[str] = None
+
+    @property
+    def reads_specs(self) -> bool:
+        """Whether the bag is read by signal specs (else as the observer's file says)."""
+        return bool(self.inputs or self.outputs or self.resample)
+
+
+def file_spec(system, key: str, topic: str) -> SignalSpec:
+    """Return the SignalSpec of what the file's ``topics.<key>`` reads from ``topic``."""
+    settings = system.topics[key]
+    if key == 'u' and settings.fields:
+        return SignalSpec(topic, ','.join(settings.fields))
+    if settings.type == 'joint_state':
+        return SignalSpec(topic, settings.field, tuple(topic_names(system.model, key)))
+    return SignalSpec(topic)
+
+
+def _width(option: str, specs, requests, found: int, wanted: int, names) -> None:
+    if found != wanted:
+        read = ', '.join(name for request in requests for name in request.names)
+        raise ConfigError(option, f'{", ".join(spec_text(spec) for spec in specs)} gives '
+                          f'{found} value{"" if found == 1 else "s"} ({read}); the model has '
+                          f'{wanted} ({", ".join(names)}): name one field per model entry, in '
+                          f'model order')
+
+
+def spec_text(spec: SignalSpec) -> str:
+    """Return a SignalSpec as the command line writes it."""
+    parts = [spec.topic] + ([spec.field] if spec.field else []) + (
+        [','.join(spec.joints)] if spec.joints else [])
+    return ':'.join(parts)
+
+
+def chosen_data(bag: str, system, choice: SignalChoice, y_topic: str, u_topic: str) -> tuple:
+    """
+    Read ``(outputs, inputs, breaks)`` of one bag as ``choice`` says, for :func:`replay_data`.
+
+    ``breaks`` are the stamps that start a stretch of the resampled grid (each one a
+    segment of its own, as after a gap; empty without resampling).
+
+    Raises
+    ------
+    ConfigError
+        Naming ``--inputs`` or ``--outputs``: more than one input topic (the observer reads
+        ``u`` from one), or a count of values other than the model's.
+    BagError
+        Topics the bag cannot give, outputs not stamped together, uneven sampling (with
+        ``resample``: what :func:`observer_ros.bags.identification.bag_signals` refuses).
+
+    """
+    model = system.model
+    inputs = choice.inputs or ((file_spec(system, 'u', u_topic),) if model.n_inputs else ())
+    outputs = choice.outputs or (file_spec(system, 'y', y_topic),)
+    if len(inputs) > 1:
+        raise ConfigError('--inputs', f'{len(inputs)} topics given '
+                          f'({", ".join(spec_text(spec) for spec in inputs)}); the observer '
+                          f'reads every input from one topic: name them all on it, '
+                          f'TOPIC:PATH[,PATH...]')
+    if inputs and not model.n_inputs:
+        raise ConfigError('--inputs', f'the model has no inputs; got '
+                          f'{spec_text(inputs[0])}')
+    if choice.resample:
+        paired = bag_signals(bag, inputs, outputs, choice.use_log_time, choice.resample,
+                             'tune_kalman')
+        _width('--inputs', inputs, paired.input_topics, paired.inputs.shape[1],
+               model.n_inputs, model.input_names)
+        _width('--outputs', outputs, paired.output_topics, paired.outputs.shape[1],
+               model.n_outputs, model.output_names)
+        stamps = paired.stamps_ns  # each held input stamped at its grid point
+        return (TopicData(stamps, stamps, paired.outputs),
+                TopicData(stamps, stamps, paired.inputs), stamps[paired.starts])
+    read = read_signals(bag, (*inputs, *outputs))
+    input_read, output_read = read[:len(inputs)], read[len(inputs):]
+    first_request, first = output_read[0]
+    for request, data in output_read[1:]:
+        if not np.array_equal(data.stamps_ns, first.stamps_ns):
+            raise BagError(f'{bag}: --outputs: {request.topic} ({len(data.stamps_ns)} messages) '
+                           f'is not stamped like {first_request.topic} '
+                           f'({len(first.stamps_ns)}); tune_kalman updates every output at '
+                           f'each sample, so the output topics must be sampled together: '
+                           f'record the outputs on one topic, resample them onto one grid '
+                           f'(--resample), or tune a model of the outputs of one topic')
+    values = np.hstack([data.values for _, data in output_read])
+    _width('--outputs', outputs, [r for r, _ in output_read], values.shape[1],
+           model.n_outputs, model.output_names)
+    output_data = TopicData(first.stamps_ns, first.log_times_ns, values)
+    none = np.zeros(0, np.int64)
+    if not inputs:
+        return output_data, TopicData(none, none, np.zeros((0, 0))), none
+    request, input_data = input_read[0]
+    _width('--inputs', inputs, [request], input_data.values.shape[1], model.n_inputs,
+           model.input_names)
+    return output_data, input_data, none
+
+
 def bag_innovations(bag: str, parameters: dict, y_topic: str = 'y', u_topic: str = 'u',
-                    truth_topic: Optional[str] = None, use_log_time: bool = False) -> BagRun:
+                    truth_topic: Optional[str] = None,
+                    choice: Optional[SignalChoice] = None) -> BagRun:
     """
     Replay one bag with the filter of ``parameters`` (flat); the task of one worker.
+
+    ``choice`` reads other topics, by field path, in log times or resampled
+    (:class:`SignalChoice`); by default the file's ``y`` and ``u``.
 
     Raises
     ------
@@ -132,7 +312,16 @@ def bag_innovations(bag: str, parameters: dict, y_topic: str = 'y', u_topic: str
 
     """
     system = system_of(parameters)
-    result = replay_bag(bag, system, y_topic, u_topic, use_log_time)
+    choice = choice or SignalChoice()
+    if choice.reads_specs or system.topics['u'].fields:  # a twist u: by its field paths
+        outputs, inputs, breaks = chosen_data(bag, system, choice, y_topic, u_topic)
+        result = replay_data(bag, system, outputs, inputs, choice.use_log_time,
+                             choice.outputs[0].topic if choice.outputs else y_topic,
+                             choice.inputs[0].topic if choice.inputs else u_topic,
+                             LOG_TIME_ADVICE)
+    else:
+        breaks = np.zeros(0, np.int64)
+        result = replay_bag(bag, system, y_topic, u_topic, choice.use_log_time)
     if result.warnings:  # inputs in another clock: every interval with the wrong input
         raise BagError(f'{result.warnings[0]}; tuning needs the inputs in the clock of the '
                        f'measurements (tune_kalman --use-log-time)')
@@ -143,6 +332,8 @@ def bag_innovations(bag: str, parameters: dict, y_topic: str = 'y', u_topic: str
         raise BagError(f'{bag}: {len(result.stamps_ns)} estimates; too short to tune from')
     max_gap_ns = system.observer.max_gap_ns
     starts = segment_starts(result.stamps_ns, max_gap_ns)
+    if len(breaks):  # each stretch of a resampled grid is a segment of its own
+        starts = np.union1d(starts, np.nonzero(np.isin(result.stamps_ns, breaks))[0])
     steps = np.diff(result.stamps_ns)
     inside = np.ones(len(steps), dtype=bool)
     inside[starts[1:] - 1] = False
@@ -153,8 +344,9 @@ def bag_innovations(bag: str, parameters: dict, y_topic: str = 'y', u_topic: str
     if uneven.any():
         raise BagError(f'{bag}: {int(uneven.sum())} of {int(inside.sum())} sample intervals '
                        f'differ from the median {period / 1e6:g} ms by more than '
-                       f'{PERIOD_TOLERANCE:.0%}; tuning takes one sample period (resample or '
-                       f'cut the recording)')
+                       f'{PERIOD_TOLERANCE:.0%}; tuning takes one sample period: resample '
+                       f'onto a uniform grid (tune_kalman --resample auto, or --resample RATE '
+                       f'in Hz) or cut the recording')
     truth_stamps = truth = None
     if truth_topic:
         try:
@@ -291,13 +483,35 @@ class TuningRun:
         """Return the last ALS estimate."""
         return self.estimates[-1]
 
+    @property
+    def failed_checks(self) -> list:
+        """
+        Return what the tuning failed of its own checks, one sentence each (empty: none).
+
+        The innovations of the tuned filter must be white (Ljung-Box), and the estimated
+        ``Q`` must not be zero.
+        """
+        failed = []
+        if zero_process_noise(self.final):
+            failed.append(f'the estimated Q (observer.process_noise) came out zero: the '
+                          f'tuned filter trusts the model alone and will not follow a plant '
+                          f'that departs from it; {zero_q_advice(self.tuned.state_names)}')
+        whiteness = self.pooled[-1].whiteness
+        if not whiteness.white:
+            p_values = ', '.join(f'{p:.3g}' for p in whiteness.p_values)
+            failed.append(f'the innovations of the tuned filter are NOT white (Ljung-Box p '
+                          f'{p_values}; {whiteness.outside:.1%} of the autocorrelations '
+                          f'outside +-{whiteness.bound:.3g}): the model does not explain the '
+                          f'data (another order, the right inputs, resampling) or the noise '
+                          f'structure is too narrow')
+        return failed
+
 
 def run_bags(mapper: Callable, bags: Sequence[str], setup: KalmanSetup, y_topic: str,
              u_topic: str, label: str, truth_topic: Optional[str] = None,
-             use_log_time: bool = False) -> list:
+             choice: Optional[SignalChoice] = None) -> list:
     """Replay every bag with ``setup``'s filter through ``mapper``; results in bag order."""
-    tasks = [(bag, setup.parameters, y_topic, u_topic, truth_topic, use_log_time)
-             for bag in bags]
+    tasks = [(bag, setup.parameters, y_topic, u_topic, truth_topic, choice) for bag in bags]
     return list(mapper(_bag_task, tasks, label))
 
 
@@ -309,7 +523,7 @@ def tune_noises(bags: Sequence[str], setup: KalmanSetup, structure: NoiseStructu
                 mapper: Callable, lags: Optional[int] = None, burn_in: Optional[int] = None,
                 iterations: int = ITERATIONS, y_topic: str = 'y', u_topic: str = 'u',
                 weighting: str = 'whitened', truth_topic: Optional[str] = None,
-                use_log_time: bool = False) -> TuningRun:
+                choice: Optional[SignalChoice] = None) -> TuningRun:
     """
     Estimate ``Q`` and ``R`` from the bags; see the module notes.
 
@@ -328,9 +542,9 @@ def tune_noises(bags: Sequence[str], setup: KalmanSetup, structure: NoiseStructu
         ALS passes, each followed by a run of the filter it gives (at least 1).
     truth_topic : str, optional
         Read this reference (``x_true``) with the first and the last run, for the report.
-    use_log_time : bool
-        Stamp every topic with its log times (see
-        :func:`observer_ros.bags.replay.replay_bag`).
+    choice : SignalChoice, optional
+        Read other topics than the file's ``y`` and ``u`` (by field path), in log times, or
+        resampled onto a uniform grid.
 
     Raises
     ------
@@ -345,36 +559,44 @@ def tune_noises(bags: Sequence[str], setup: KalmanSetup, structure: NoiseStructu
         raise ConfigError('lags', f'expected at least 2, got {lags}')
     if burn_in is not None and burn_in < 0:
         raise ConfigError('burn_in', f'expected 0 or more, got {burn_in}')
-    runs = run_bags(mapper, bags, setup, y_topic, u_topic, 'replay', truth_topic,
-                    use_log_time)
+    runs = run_bags(mapper, bags, setup, y_topic, u_topic, 'replay', truth_topic, choice)
     period = common_period(runs, setup)
     outcome = TuningRun(period)
     current = setup
     for iteration in range(iterations + 1):
-        sampled = current.sampled_filter(period)
-        sampled.check_stable()
-        count = lags if lags is not None else default_lags(sampled)
-        skip = burn_in if burn_in is not None else default_burn_in(sampled)
-        pooled = pool(runs, count, skip, current.innovation_covariance(period))
+        try:
+            if iteration:
+                estimate = outcome.final
+                current = setup.with_noises(estimate.process_noise, estimate.measurement_noise,
+                                            structure.process == 'diagonal',
+                                            structure.measurement == 'diagonal')
+                runs = run_bags(mapper, bags, current, y_topic, u_topic,
+                                f'tuned filter {iteration}',
+                                truth_topic if iteration == iterations else None, choice)
+            sampled = current.sampled_filter(period)
+            sampled.check_stable()
+            count = lags if lags is not None else default_lags(sampled)
+            skip = burn_in if burn_in is not None else default_burn_in(sampled)
+            pooled = pool(runs, count, skip, current.innovation_covariance(period))
+        except (BagError, ConfigError, DesignError) as e:
+            if not iteration:
+                raise
+            raise TunedFilterError(outcome.final, current.state_names, e) from e
         outcome.lags.append(count)
         outcome.setups.append(current)
         outcome.runs.append(runs)
         outcome.pooled.append(pooled)
         if iteration == iterations:
             break
-        estimate = autocovariance_least_squares(
+        outcome.estimates.append(autocovariance_least_squares(
             pooled.statistics.autocovariances(), sampled, structure, current.state_names,
-            current.output_names, weighting)
-        outcome.estimates.append(estimate)
-        current = setup.with_noises(estimate.process_noise, estimate.measurement_noise,
-                                    structure.process == 'diagonal',
-                                    structure.measurement == 'diagonal')
-        runs = run_bags(mapper, bags, current, y_topic, u_topic, f'tuned filter {iteration + 1}',
-                        truth_topic if iteration == iterations - 1 else None, use_log_time)
+            current.output_names, weighting))
     return outcome
 
 
-__all__ = ['BURN_IN_DECAY', 'BagRun', 'ITERATIONS', 'Pooled', 'TuningRun', 'bag_innovations',
-           'common_period', 'default_burn_in', 'default_lags', 'normalized_squares', 'pool',
-           'run_bags',
-           'segment_starts', 'tune_noises']
+__all__ = ['BURN_IN_DECAY', 'BagRun', 'FAILED_CHECKS_STATUS', 'ITERATIONS',
+           'PERIOD_TOLERANCE', 'Pooled', 'SignalChoice', 'TunedFilterError', 'TuningRun',
+           'ZERO_PROCESS_NOISE', 'bag_innovations', 'chosen_data', 'common_period',
+           'default_burn_in', 'default_lags', 'file_spec', 'normalized_squares', 'pool',
+           'run_bags', 'segment_starts', 'spec_text', 'tune_noises', 'zero_process_noise',
+           'zero_q_advice']

@@ -37,6 +37,7 @@ from observer_ros.app.parallel import add_worker_arguments, single_threaded_blas
 from observer_ros.app.run_report import fit_figure, HtmlReport, singular_values_figure
 from observer_ros.bags.filter_config import model_document, write_validated
 from observer_ros.bags.identification import HOLDOUT, Identification, identify_bags, SignalSpec
+from observer_ros.bags.signals import PERIOD_TOLERANCE
 from observer_ros.bags.storage import TopicRequest
 from observer_ros.config.schema import INPUT_MESSAGE_TYPES
 from observer_ros.core.tuning.subspace import FEEDTHROUGH_CHOICES, order_advice
@@ -88,7 +89,36 @@ def summary(result: Identification, order: int) -> str:
     lines += [_matrix('A', a), _matrix('B', b), _matrix('C', model.c), _matrix('D', model.d)]
     fits = ', '.join(f'{name} {fit:.2f}%' for name, fit in zip(names.output_names, result.fit))
     lines.append(f'fit on the held-out data: {fits}')
+    lines += _resampling_lines(result)
     return '\n'.join(lines)
+
+
+def _resampling_lines(result: Identification) -> list:
+    """Say what resampling did to each bag, and the fit of the raw samples beside it."""
+    lines = []
+    names = result.signals[0].output_names
+    for item in result.signals:
+        note = item.resampling
+        if note is None:
+            continue
+        errors = ', '.join(f'{name} {rms:.3g} ({rms / scale if scale else 0.0:.1%} of its RMS)'
+                           for name, rms, scale in zip(names, note.interpolation_rms,
+                                                       note.output_rms))
+        lines.append(f'resampled {item.bag}: {note.raw_samples} measurements (intervals '
+                     f'{note.raw_min_ns / 1e6:g} .. {note.raw_max_ns / 1e6:g} ms, median '
+                     f'{note.raw_median_ns / 1e6:g} ms, {note.uneven} off it by more than '
+                     f'{PERIOD_TOLERANCE:.0%}) onto {note.samples} points every '
+                     f'{note.period_ns / 1e6:g} ms in {note.records} stretch'
+                     f'{"" if note.records == 1 else "es"} (inputs zero-order held, outputs '
+                     f'linearly interpolated); grid interpolated back at the measured stamps: '
+                     f'RMS error {errors}')
+    if result.raw_fit is not None:
+        fits = ', '.join(f'{name} {fit:.2f}%' for name, fit in zip(names, result.raw_fit))
+        lines.append(f'fit of the raw samples taken as evenly spaced (not resampled): {fits}')
+    elif result.raw_fit_error:
+        lines.append(f'the raw samples taken as evenly spaced give no model: '
+                     f'{result.raw_fit_error}')
+    return lines
 
 
 def model_text(result: Identification, text: str) -> str:
@@ -162,6 +192,10 @@ def main(args=None) -> int:
     parser.add_argument('--use-log-time', action='store_true',
                         help='stamp every topic with its log times instead of its header '
                         'stamps (inputs without a header in a bag recorded in sim time)')
+    parser.add_argument('--resample', metavar='RATE', default=None,
+                        help='resample unevenly sampled recordings onto a uniform grid of RATE '
+                        'Hz, or auto (the median measurement interval): inputs zero-order '
+                        'held, outputs linearly interpolated')
     parser.add_argument('-o', '--output', metavar='FILE', help='write the model parameter file')
     parser.add_argument('--report', metavar='DIR', help='write DIR/identify.html')
     add_worker_arguments(parser, 'read')
@@ -177,7 +211,7 @@ def _run(options) -> int:
         with task_mapper(options.workers, options.dask) as mapper:
             result = identify_bags(bags, inputs, outputs, options.order, mapper, options.holdout,
                                    options.horizon, options.continuous, options.use_log_time,
-                                   options.feedthrough)
+                                   options.resample, options.feedthrough)
         return result, summary(result, options.order)
 
     return run_tool(

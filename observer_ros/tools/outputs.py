@@ -16,7 +16,7 @@
 
 from pathlib import Path
 import sys
-from typing import Callable
+from typing import Callable, Optional
 
 from observer_ros.bags.collection import expand_bags
 from observer_ros.bags.replay_outputs import (
@@ -50,8 +50,14 @@ def checked_bags(options) -> list:
     return expand_bags(options.bags)
 
 
+#: Exit status of an error (one line on stderr, nothing written).
+ERROR_STATUS = 2
+
+
 def run_tool(tool: str, options, compute: Callable[[list], tuple],
-             write_output: Callable, output_label: str, write_report: Callable) -> int:
+             write_output: Callable, output_label: str, write_report: Callable,
+             failed_checks: Optional[Callable[[object], list]] = None,
+             accept_option: str = '', failed_status: int = ERROR_STATUS) -> int:
     """
     Run a bag tool: check its outputs, compute, write; one error line and status 2 on failure.
 
@@ -59,16 +65,27 @@ def run_tool(tool: str, options, compute: Callable[[list], tuple],
     ``options.output``; ``write_report(result, text)`` writes the report and returns its
     path. The output paths are checked before any bag is read; the folders they need are
     made after the work (as ``replay`` makes those of its outputs), and an output that then
-    cannot be written is an error naming its option and path that leaves nothing behind.
+    cannot be written is an error naming its option and path that leaves nothing behind. An
+    error with an ``exit_status`` attribute exits with that status instead of 2.
+
+    ``failed_checks(result)`` lists the tool's own checks that the result failed: then
+    ``options.output`` is not written, a line on stderr says so and the tool exits with
+    ``failed_status``, unless the option ``accept_option`` (``--accept-failed-checks``) was
+    given. The report is written either way.
     """
     written, made = [], []
     try:
         bags = checked_bags(options)
         result, text = compute(bags)
-        made = made_directories(options.output, options.report and Path(options.report) / tool)
+        failed = failed_checks(result) if failed_checks else []
+        accepted = bool(accept_option) and getattr(
+            options, accept_option.lstrip('-').replace('-', '_'))
+        refused = bool(failed) and not accepted
+        output = options.output if not refused else None
+        made = made_directories(output, options.report and Path(options.report) / tool)
         for directory in reversed(made):  # shallowest first
             directory.mkdir(exist_ok=True)
-        if options.output:
+        if output:
             _written('--output', options.output, write_output, result, text)
             written.append(Path(options.output))
         report = None
@@ -77,12 +94,17 @@ def run_tool(tool: str, options, compute: Callable[[list], tuple],
     except (BagError, ConfigError, DesignError, ValueError, OSError) as e:
         remove_outputs(written, made)
         print(f'{tool}: error: {e}', file=sys.stderr)
-        return 2
+        return getattr(e, 'exit_status', ERROR_STATUS)
     print(text)
     if options.output:
-        print(f'{output_label}: {options.output}')
+        print(f'{output_label}: {options.output}' if not refused else
+              f'{output_label}: not written ({accept_option} writes it anyway)')
     if report is not None:
         print(f'report: {report}')
+    if refused:
+        print(f'{tool}: failed its checks (exit status {failed_status}): '
+              + '; '.join(failed), file=sys.stderr)
+        return failed_status
     return 0
 
 
@@ -94,4 +116,4 @@ def _written(option: str, path, write: Callable, result, text: str):
         raise BagError(f'{option}: cannot write {path}: {e.strerror or e}') from e
 
 
-__all__ = ['check_file', 'check_report_directory', 'checked_bags', 'run_tool']
+__all__ = ['ERROR_STATUS', 'check_file', 'check_report_directory', 'checked_bags', 'run_tool']

@@ -23,6 +23,13 @@ prints the estimates, the entries the data cannot identify, and the NIS and whit
 and after. ``-o`` writes PARAMS with the tuned noises (validated first; the summary as
 comments on top); ``--report DIR`` writes ``DIR/tune_kalman.html`` and
 ``DIR/tune_kalman.json``. An error prints one line, exits with status 2 and writes nothing.
+
+``--inputs``/``--outputs`` read other topics by field path, with ``identify``'s reader
+(:mod:`observer_ros.bags.signals`); ``--use-log-time`` stamps them with their log times and
+``--resample`` puts them onto a uniform grid as ``identify`` does. A tuning that fails its
+own checks (innovations not white after tuning, a zero ``Q``) says so, writes no ``-o``
+file and exits with status 3 (:data:`~observer_ros.bags.tuning.FAILED_CHECKS_STATUS`)
+unless ``--accept-failed-checks``.
 """
 
 import argparse
@@ -36,7 +43,10 @@ import numpy as np
 from observer_ros.app.parallel import add_worker_arguments, single_threaded_blas, task_mapper
 from observer_ros.app.run_report import filter_run_section, HtmlReport
 from observer_ros.bags.filter_config import load_kalman_setup
-from observer_ros.bags.tuning import ITERATIONS, normalized_squares, tune_noises, TuningRun
+from observer_ros.bags.identification import resample_period
+from observer_ros.bags.signals import SignalSpec
+from observer_ros.bags.tuning import (
+    FAILED_CHECKS_STATUS, ITERATIONS, normalized_squares, SignalChoice, tune_noises, TuningRun)
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.tuning.als import NoiseStructure, STRUCTURES, WEIGHTINGS
 from observer_ros.signals import stops_on_signal
@@ -121,6 +131,9 @@ def summary(outcome: TuningRun, bags) -> str:
                      f'neither the filter gain nor the innovation covariance)')
     lines.append(f'before: {_judgement(pooled[0])}')
     lines.append(f'after:  {_judgement(pooled[-1])}')
+    failed = outcome.failed_checks
+    lines += ([f'FAILED check: {text}' for text in failed] if failed else
+              ['checks passed: white innovations after tuning, Q not zero'])
     return '\n'.join(lines)
 
 
@@ -143,7 +156,8 @@ def summary_json(outcome: TuningRun, bags) -> dict:
                       'measurement_noise': outcome.tuned.measurement_noise.tolist()},
             'unidentifiable': list(outcome.final.unidentifiable),
             'method': outcome.final.method, 'rank': outcome.final.rank,
-            'before': _statistics(outcome.pooled[0]), 'after': _statistics(outcome.pooled[-1])}
+            'before': _statistics(outcome.pooled[0]), 'after': _statistics(outcome.pooled[-1]),
+            'failed_checks': outcome.failed_checks}
 
 
 def write_report(directory, outcome: TuningRun, bags, text: str) -> Path:
@@ -204,9 +218,24 @@ def main(args=None) -> int:
     parser.add_argument('--weighting', choices=WEIGHTINGS, default='whitened')
     parser.add_argument('--y-topic', default='y', help='measurement topic in the bags')
     parser.add_argument('--u-topic', default='u', help='input topic in the bags')
+    parser.add_argument('--inputs', nargs='+', default=[], metavar='TOPIC',
+                        help='read the inputs as identify does: TOPIC[:FIELD[:JOINT,...]] or '
+                        'TOPIC:PATH[,PATH...] (one topic; default: topics.u of PARAMS on '
+                        '--u-topic)')
+    parser.add_argument('--outputs', nargs='+', default=[], metavar='TOPIC',
+                        help='read the outputs as identify does (several topics when stamped '
+                        'together; default: topics.y of PARAMS on --y-topic)')
     parser.add_argument('--use-log-time', action='store_true',
-                        help='stamp y and u with their log times instead of their header '
-                        'stamps (streams stamped in different time bases)')
+                        help='stamp every topic with its log times instead of its header '
+                        'stamps (inputs without a header in a bag recorded in sim time)')
+    parser.add_argument('--resample', metavar='RATE', default=None,
+                        help='resample onto a uniform grid of RATE Hz, or auto, as identify '
+                        'does: inputs zero-order held, outputs linearly interpolated')
+    parser.add_argument('--accept-failed-checks', action='store_true',
+                        help=f'write the tuned file and exit 0 even when the tuning failed '
+                        f'its checks (innovations not white after tuning, Q zero); without '
+                        f'it such a tuning writes no -o file and exits with '
+                        f'{FAILED_CHECKS_STATUS}')
     add_worker_arguments(parser, 'run')
     options = parser.parse_args(args)
     with single_threaded_blas():
@@ -220,11 +249,15 @@ def _run(options) -> int:
         structure = NoiseStructure.build(setup.model.n_states, setup.model.n_outputs,
                                          options.process_structure,
                                          options.measurement_structure, known)
+        resample_period(options.resample, 1)  # a bad --resample fails before any bag is read
+        choice = SignalChoice(tuple(SignalSpec.parse(text) for text in options.inputs),
+                              tuple(SignalSpec.parse(text) for text in options.outputs),
+                              options.use_log_time, options.resample)
         with task_mapper(options.workers, options.dask) as mapper:
             outcome = tune_noises(bags, setup, structure, mapper, options.lags, options.burn_in,
                                   options.iterations, options.y_topic, options.u_topic,
                                   options.weighting, 'x_true' if options.report else None,
-                                  options.use_log_time)
+                                  choice)
         return (outcome, bags), summary(outcome, bags)
 
     def write_output(result, text):
@@ -233,7 +266,9 @@ def _run(options) -> int:
                             f'bag(s); see its report.\n' + text)
 
     return run_tool('tune_kalman', options, compute, write_output, 'tuned parameters',
-                    lambda result, text: write_report(options.report, *result, text))
+                    lambda result, text: write_report(options.report, *result, text),
+                    lambda result: result[0].failed_checks, '--accept-failed-checks',
+                    FAILED_CHECKS_STATUS)
 
 
 if __name__ == '__main__':
