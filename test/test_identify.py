@@ -17,6 +17,9 @@
 import numpy as np
 import pytest
 
+from observer_ros.bags.examples import (
+    THIRD_ORDER_A, THIRD_ORDER_B, THIRD_ORDER_PERIOD, THIRD_ORDER_SAMPLES, THIRD_ORDER_SNR_DB,
+    write_third_order)
 from observer_ros.bags.storage import TopicToWrite, write_bag
 from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.discretize import zero_order_hold
@@ -26,37 +29,10 @@ from observer_ros.tools.replay import main as replay
 from observer_ros.tools.tune_kalman import main as tune_kalman
 from tuning_support import START_NS
 
-#: The plant: poles -1.58 and -0.91 +- 2.34j, sampled at 20 Hz, position measured.
-A = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-10.0, -9.2, -3.4]])
-B = np.array([[0.0], [0.0], [10.0]])
-PERIOD, SAMPLES, SNR_DB = 0.05, 20_000, 30.0
-
-
-def write_third_order(path, samples=SAMPLES, seed=1, inputs=None, nan_at=None,
-                      feedthrough=None):
-    """
-    Record ``u`` (white) and ``y`` (position plus noise at 30 dB) as JointStates.
-
-    ``feedthrough``: ``D``, ``y[k] = x1[k] + D u[k]`` with ``u[k]`` stamped with ``y[k]`` (the
-    input applied at that sample). Returns the standard deviation of the noise.
-    """
-    ad, bd = zero_order_hold(A, B, PERIOD)
-    rng = np.random.default_rng(seed)
-    u = rng.standard_normal((samples, 1)) if inputs is None else inputs
-    x, y = np.zeros(3), np.empty((samples, 1))
-    for k in range(samples):
-        y[k] = x[0] if feedthrough is None else x[0] + feedthrough * u[k, 0]
-        x = ad @ x + bd @ u[k]
-    noise = y.std() * 10 ** (-SNR_DB / 20)
-    y += rng.standard_normal(y.shape) * noise
-    if nan_at is not None:
-        y[nan_at] = np.nan
-    stamps = START_NS + round(PERIOD * 1e9) * np.arange(samples, dtype=np.int64)
-    write_bag(path, [TopicToWrite('/u', 'joint_state', 'position', ['force'], stamps,
-                                  stamps - 1000, u),
-                     TopicToWrite('/y', 'joint_state', 'position', ['position'], stamps,
-                                  stamps, y)])
-    return noise
+#: The plant: poles -1.58 and -0.91 +- 2.34j, sampled at 20 Hz, position measured (the
+#: tuning page's example, written by the package's examples module).
+A, B = THIRD_ORDER_A, THIRD_ORDER_B
+PERIOD, SAMPLES, SNR_DB = THIRD_ORDER_PERIOD, THIRD_ORDER_SAMPLES, THIRD_ORDER_SNR_DB
 
 
 @pytest.fixture(scope='module')

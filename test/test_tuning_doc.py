@@ -27,16 +27,14 @@ from pathlib import Path
 import re
 import shlex
 
-import numpy as np
 import pytest
 
 from conftest import REPOSITORY
+from observer_ros.bags.examples import main as examples_main
 from observer_ros.tools.identify import main as identify_main
 from observer_ros.tools.replay import main as replay_main
 from observer_ros.tools.tune_kalman import main as tune_main
-from test_identify import write_third_order
 from test_run_reports import check_page
-from tuning_support import COUPLED, SPRING
 
 PAGE = REPOSITORY / 'doc' / 'tuning.md'
 TOOLS = {'tune_kalman': tune_main, 'identify': identify_main, 'replay': replay_main}
@@ -45,16 +43,8 @@ DASK_ADDRESS = 'tcp://127.0.0.1:8786'
 
 
 def make_example(folder: Path) -> None:
-    """Write the recordings and parameter files the page's commands use."""
-    SPRING.write_bag(folder / 'spring_run', 30_000, seed=21)
-    SPRING.write_parameters(folder / 'spring_guess.yaml', process_noise=np.diag([0.0, 0.4]),
-                            measurement_noise=[[1e-5]])
-    for part in range(4):
-        COUPLED.write_bag(folder / 'fleet' / f'run{part}', 5000, seed=30 + part)
-    COUPLED.write_parameters(folder / 'coupled_guess.yaml',
-                             process_noise=COUPLED.process_noise * 10,
-                             measurement_noise=COUPLED.measurement_noise / 10)
-    write_third_order(folder / 'third_order', 20_000, seed=5)
+    """Write the recordings and parameter files the page's commands use (as users do)."""
+    assert examples_main([str(folder)]) == 0
 
 
 def examples(text: str) -> list:
