@@ -330,3 +330,23 @@ def test_the_full_covariance_and_a_meaningless_covariance_option(tmp_path, capsy
                         '--u-topic', '/cmd_vel', '--csv', str(csv), '--covariance',
                         'diagonal']) == 2
     assert 'has no covariance to write' in capsys.readouterr().err
+
+
+def test_a_report_of_a_bag_without_the_true_state_shows_the_filter_alone(tmp_path, capsys):
+    # A robot's bag has no /x_true: --report wrote nothing and exited 2 ("--report needs the
+    # true state"); it now writes the estimates, innovations and NIS, and says why no errors.
+    write_drive_bag(tmp_path / 'bag')
+    params = drive_parameters(tmp_path / 'drive.yaml')
+    assert replay_main([str(tmp_path / 'bag'), str(params), '--y-topic', '/joint_states',
+                        '--u-topic', '/cmd_vel', '--report', str(tmp_path / 'report')]) == 0
+    captured = capsys.readouterr()
+    assert 'no x_true in the bag (no true state)' in captured.err
+    page = (tmp_path / 'report' / 'replay.html').read_text(encoding='utf-8')
+    assert ': estimates' in page and ': innovation' in page
+    assert not (tmp_path / 'report' / 'replay.png').exists()
+    # A truth named by --truth must be there.
+    assert replay_main([str(tmp_path / 'bag'), str(params), '--y-topic', '/joint_states',
+                        '--u-topic', '/cmd_vel', '--report', str(tmp_path / 'again'),
+                        '--truth', '/ground_truth']) == 2
+    assert 'no topic /ground_truth' in capsys.readouterr().err
+    assert not (tmp_path / 'again').exists()

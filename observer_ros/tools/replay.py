@@ -235,6 +235,7 @@ def main(args=None) -> int:
     try:
         system = load_system(options.params)
         refuse_meaningless_options(options, system)
+        truth_named = options.truth is not None
         options.truth = options.truth or 'x_true'
         bags = expand_bags(options.bags)
         if len(bags) > 1:
@@ -256,14 +257,20 @@ def main(args=None) -> int:
         rmse = [(reference, *reference_rmse(result, reference, settle))
                 for reference in references]
         elapsed = time.perf_counter() - started
-        truth = None
+        truth, untrue = None, None
         if options.report:
             try:
                 truth = result.truth(options.truth)
             except BagError as e:
-                raise BagError(f'--report needs the true state: {e}') from e
-            if not len(align(truth.stamps_ns, truth.values, result.stamps_ns,
-                             result.estimates)[0]):
+                if truth_named:  # asked for by name: it must be there
+                    raise BagError(f'--report: {e}') from e
+                # A robot's bag has no true state: the report shows the estimates, the
+                # innovations and NIS without the error table.
+                untrue = (f'--report: no {options.truth} in the bag (no true state): the '
+                          f'report shows the estimates and the innovations, without errors; '
+                          f'--truth TOPIC names a reference')
+            if truth is not None and not len(align(truth.stamps_ns, truth.values,
+                                                   result.stamps_ns, result.estimates)[0]):
                 raise BagError(f'{options.bag}: --report: {options.truth} and the estimates '
                                f'share no stamp; nothing to compare')
     except (BagError, ConfigError, DesignError, ValueError) as e:
@@ -283,15 +290,18 @@ def main(args=None) -> int:
               f'{len(result.stamps_ns)} estimates in {elapsed:.3f} s '
               f'({len(result.outputs.values) / max(elapsed, 1e-9):,.0f} samples/s); {counters}')
         print_warnings(result)
+        if untrue:
+            print(f'replay: warning: {untrue}', file=sys.stderr)
         for reference, error, count in rmse:
             print(f'{reference.state}: RMSE {error:.6g} against {reference.topic} '
                   f'{reference.field} of {reference.joint} ({count} estimates, after '
                   f'{settle:g} s)')
-        if truth is not None:
-            print(write_run_report(
-                options.report, REPORT_NAME, result.system, truth.stamps_ns, truth.values,
-                result.stamps_ns, result.estimates,
-                title=f'{result.system.observer.design.kind} observer, {options.bag}'))
+        if options.report:
+            if truth is not None:
+                print(write_run_report(
+                    options.report, REPORT_NAME, result.system, truth.stamps_ns,
+                    truth.values, result.stamps_ns, result.estimates,
+                    title=f'{result.system.observer.design.kind} observer, {options.bag}'))
             kind = result.system.observer.design.kind
             page = HtmlReport(f'replay: {kind} observer, {options.bag}')
             report_section(page, result, truth)
