@@ -71,8 +71,8 @@ def parse_arguments(argv):
                         help='sensor rate in Hz (default 50)')
     parser.add_argument('--jitter', type=float, default=0.003,
                         help='largest offset of a stamp from its period, s (default 0.003)')
-    parser.add_argument('--command-every', type=int, default=10,
-                        help='samples between commands (default 10)')
+    parser.add_argument('--command-every', type=int, default=20,
+                        help='samples between commands (default 20)')
     parser.add_argument('--seed', type=int, default=0, help='random seed (default 0)')
     parser.add_argument('--storage', choices=STORAGES, default='mcap',
                         help='bag storage (default mcap)')
