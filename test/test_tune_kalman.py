@@ -15,6 +15,7 @@
 """``tune_kalman`` on simulated bags with known noises: accuracy, pooling, Dask, bad input."""
 
 import json
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -24,7 +25,9 @@ from bag_support import JOINT_STATE, joint_state, serialize, TYPES, TYPESTORE
 from conftest import CONFIG_DIR
 from observer_ros.bags.replay import replay_bag
 from observer_ros.bags.storage import TopicToWrite, write_bag
+from observer_ros.bags.tuning import TunedFilterError
 from observer_ros.config import load_parameter_file, validate_parameters
+from observer_ros.core.errors import DesignError
 from observer_ros.core.flat_matrices import covariance_from_flat
 from observer_ros.tools.tune_kalman import main
 from tuning_support import COUPLED, expected_mse, NoisyPlant, SPRING, START_NS
@@ -427,3 +430,21 @@ def test_outputs_stamped_apart_are_refused_or_interpolated_onto_one_grid(tmp_pat
     assert 'checks passed' in capsys.readouterr().out
     q, r = _noises(tuned, COUPLED)
     assert np.all(_relative(np.diag(q), np.diag(COUPLED.process_noise)) < ACCURACY), q
+
+
+def test_a_tuned_filter_refused_for_a_singular_r_blames_r_not_q():
+    # Two wheel velocities and an IMU resampled onto one grid gave an R with eigenvalues
+    # from 2.4e-12 to 0.096 and Q = diag(3.7, 0.6); the Kalman design then failed (a pole at
+    # -6e4) and the refusal said "A Q this small for the model is near zero".
+    estimate = SimpleNamespace(process_noise=np.diag([3.7, 0.6]),
+                               measurement_noise=np.array([[1.0e-3, -1.0e-3, 0.0],
+                                                           [-1.0e-3, 1.0e-3, 0.0],
+                                                           [0.0, 0.0, 0.1]]))
+    error = TunedFilterError(estimate, ['x1', 'x2'], DesignError('not stabilizing'))
+    assert 'the estimated R (observer.measurement_noise) is singular' in error.reason
+    assert '--measurement-structure diagonal' in error.reason
+    assert 'Q this small' not in error.reason
+    regular = SimpleNamespace(process_noise=np.diag([1e-9, 1e-9]),
+                              measurement_noise=np.diag([1e-3, 1e-3, 0.1]))
+    error = TunedFilterError(regular, ['x1', 'x2'], DesignError('not stabilizing'))
+    assert 'A Q this small for the model is near zero' in error.reason

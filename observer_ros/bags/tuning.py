@@ -32,7 +32,7 @@ the statistics.
 """
 
 from dataclasses import dataclass, field
-from typing import Callable, Optional, Sequence
+from typing import Callable, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -95,6 +95,21 @@ def zero_q_advice(state_names: Sequence[str]) -> str:
             f'record longer with more excitation')
 
 
+#: An estimated ``R`` whose smallest eigenvalue is at most this fraction of its largest is
+#: singular: the filter would take some combination of the outputs as exact.
+SINGULAR_MEASUREMENT_NOISE = 1e-6
+
+
+def singular_measurement_noise(estimate: AlsResult) -> Optional[Tuple[float, float]]:
+    """Return the smallest and largest eigenvalues of a singular estimated ``R``, else None."""
+    values = np.linalg.eigvalsh(np.atleast_2d(np.asarray(estimate.measurement_noise, float)))
+    if values.size < 2 or values[-1] <= 0.0:
+        return None
+    if values[0] > SINGULAR_MEASUREMENT_NOISE * values[-1]:
+        return None
+    return float(values[0]), float(values[-1])
+
+
 class TunedFilterError(DesignError):
     """
     The tuned filter cannot be made or run; the tuning failed its checks.
@@ -116,6 +131,18 @@ class TunedFilterError(DesignError):
                       f'tuned filter fails: {cause}. Nothing written (--accept-failed-checks '
                       f'cannot help: the nodes refuse this filter). What to do: '
                       f'{zero_q_advice(state_names)}')
+        elif singular_measurement_noise(estimate):
+            # Not Q's fault: a singular R makes the Kalman gain (nearly) unbounded.
+            low, high = singular_measurement_noise(estimate)
+            reason = (f'tuning failed its checks: the estimated R (observer.measurement_noise) '
+                      f'is singular (eigenvalues from {low:.3g} to {high:.3g}; Q = {q}, '
+                      f'R = {r}): the filter would take a combination of the outputs as '
+                      f'exact, and it fails: {cause}. The innovations cannot tell the noise '
+                      f'of that combination, as with outputs interpolated onto one grid or '
+                      f'outputs that repeat each other. Nothing written. What to do: estimate '
+                      f'a diagonal R (--measurement-structure diagonal), fix the variances you '
+                      f'know (--known "R[0,0]=VALUE", by output name or index), or leave out '
+                      f'an output that repeats others')
         else:
             reason = (f'tuning failed its checks: the tuned filter (Q = {q}, R = {r}) fails: '
                       f'{cause}. Nothing written. A Q this small for the model is near zero: '

@@ -173,12 +173,13 @@ def main(args=None) -> int:
         'from recorded inputs and outputs (subspace identification).')
     parser.add_argument('bags', nargs='+', metavar='BAG', help='rosbag2 bags or folders of bags')
     parser.add_argument('--order', type=int, required=True, help='number of states n')
-    parser.add_argument('--inputs', nargs='+', default=['u'], metavar='TOPIC',
+    # extend: a repeated option adds its topics (it used to keep only the last one).
+    parser.add_argument('--inputs', nargs='+', action='extend', default=None, metavar='TOPIC',
                         help='input topics, TOPIC[:FIELD[:JOINT,...]] or '
-                        'TOPIC:PATH[,PATH...] (default u)')
-    parser.add_argument('--outputs', nargs='+', default=['y'], metavar='TOPIC',
-                        help='output topics, TOPIC[:FIELD[:JOINT,...]] or '
-                        'TOPIC:PATH[,PATH...] (default y)')
+                        'TOPIC:PATH[,PATH...] (default u; repeatable)')
+    parser.add_argument('--outputs', nargs='+', action='extend', default=None,
+                        metavar='TOPIC', help='output topics, TOPIC[:FIELD[:JOINT,...]] or '
+                        'TOPIC:PATH[,PATH...] (default y; repeatable)')
     parser.add_argument('--continuous', action='store_true',
                         help='write the continuous model (zero-order hold inverted)')
     parser.add_argument('--feedthrough', choices=FEEDTHROUGH_CHOICES, default=FEEDTHROUGH,
@@ -206,8 +207,8 @@ def main(args=None) -> int:
 
 def _run(options) -> int:
     def compute(bags):
-        inputs = [SignalSpec.parse(text) for text in options.inputs]
-        outputs = [SignalSpec.parse(text) for text in options.outputs]
+        inputs = [SignalSpec.parse(text) for text in options.inputs or ['u']]
+        outputs = [SignalSpec.parse(text) for text in options.outputs or ['y']]
         with task_mapper(options.workers, options.dask) as mapper:
             result = identify_bags(bags, inputs, outputs, options.order, mapper, options.holdout,
                                    options.horizon, options.continuous, options.use_log_time,

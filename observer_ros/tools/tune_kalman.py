@@ -218,11 +218,12 @@ def main(args=None) -> int:
     parser.add_argument('--weighting', choices=WEIGHTINGS, default='whitened')
     parser.add_argument('--y-topic', default='y', help='measurement topic in the bags')
     parser.add_argument('--u-topic', default='u', help='input topic in the bags')
-    parser.add_argument('--inputs', nargs='+', default=[], metavar='TOPIC',
+    # extend: a repeated option adds its topics (it used to keep only the last one).
+    parser.add_argument('--inputs', nargs='+', action='extend', default=[], metavar='TOPIC',
                         help='read the inputs as identify does: TOPIC[:FIELD[:JOINT,...]] or '
                         'TOPIC:PATH[,PATH...] (one topic; default: topics.u of PARAMS on '
                         '--u-topic)')
-    parser.add_argument('--outputs', nargs='+', default=[], metavar='TOPIC',
+    parser.add_argument('--outputs', nargs='+', action='extend', default=[], metavar='TOPIC',
                         help='read the outputs as identify does (several topics when stamped '
                         'together; default: topics.y of PARAMS on --y-topic)')
     parser.add_argument('--use-log-time', action='store_true',
