@@ -350,3 +350,20 @@ def test_a_report_of_a_bag_without_the_true_state_shows_the_filter_alone(tmp_pat
                         '--truth', '/ground_truth']) == 2
     assert 'no topic /ground_truth' in capsys.readouterr().err
     assert not (tmp_path / 'again').exists()
+
+
+def test_a_report_of_measurement_sources_takes_their_partial_innovations(tmp_path, capsys):
+    # Each source updates the outputs it measured: the other outputs' innovations are NaN
+    # in that row, and the report's autocorrelation refused them after all the work
+    # ("innovations: expected finite values", exit 2; seen on a TurtleBot3 bag).
+    write_drive_bag(tmp_path / 'bag', samples=200)
+    sources = {'left': {'topic': '/joint_states', 'type': 'joint_state',
+                        'fields': ['velocity.wheel_left_joint'], 'outputs': ['wheel_left_joint'],
+                        'measurement_noise': [0.01]},
+               'right': {'topic': '/joint_states', 'type': 'joint_state',
+                         'fields': ['velocity.wheel_right_joint'],
+                         'outputs': ['wheel_right_joint'], 'measurement_noise': [0.01]}}
+    params = drive_parameters(tmp_path / 'two.yaml', sources=sources, time_varying=True)
+    assert replay_main([str(tmp_path / 'bag'), str(params), '--u-topic', '/cmd_vel',
+                        '--report', str(tmp_path / 'report')]) == 0, capsys.readouterr().err
+    assert (tmp_path / 'report' / 'replay.html').exists()

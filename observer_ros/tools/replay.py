@@ -63,9 +63,13 @@ def report_section(report: HtmlReport, result, truth=None) -> None:
     """Add one replayed bag to the HTML report (:func:`filter_run_section`)."""
     model = result.system.model
     correlation, bound = None, 0.0
-    if len(result.innovations) > REPORT_LAGS:
+    # With measurement sources a row has the innovations of the outputs that arrived (NaN
+    # for the others): the autocorrelation is of the rows that have every output.
+    complete = result.innovations[np.all(np.isfinite(result.innovations), axis=1)] if len(
+        result.innovations) else result.innovations
+    if len(complete) > REPORT_LAGS:
         statistics = InnovationStatistics(REPORT_LAGS, model.n_outputs)
-        statistics.add(result.innovations)
+        statistics.add(complete)
         try:
             judged = whiteness(statistics)
             correlation, bound = judged.correlation, judged.bound
