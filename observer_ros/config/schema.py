@@ -46,6 +46,9 @@ COMBINED_NODES = {CONTROLLER: (OBSERVER, FEEDBACK)}
 #: Where the controller takes the input of its next prediction from.
 CONTROLLER_INPUTS = ('u', 'command')
 
+#: How the observer stamps an unstamped input (``observer.unstamped_input``).
+UNSTAMPED_INPUTS = ('arrival', 'next_measurement')
+
 
 @dataclass(frozen=True)
 class ParameterSpec(Argument):
@@ -211,6 +214,12 @@ OBSERVER_STREAM = (
     _seconds('observer.input_wait', 0.05, 'Wall-clock seconds a measurement may wait for the '
              'stamped input of its interval before the latest earlier input is used '
              '(0 ... 10).', 0.0, 10.0, _OBS),
+    _spec('observer.unstamped_input', STRING, 'arrival', 'How an unstamped u '
+          '(float64_multi_array, or a zero stamp) is stamped: arrival (the node clock when it '
+          'arrives; every sample period of delay pairs it one interval later) | '
+          'next_measurement (the stamp of the next measurement: applied from that sample '
+          'on, as a driver applying the latest command at each sample does, however late '
+          'it arrived).', _OBS, choices=UNSTAMPED_INPUTS),
     _seconds('observer.interval_resolution', 0.0,
              'Seconds: sample intervals are rounded to a multiple of this before the '
              'observer is discretized and designed for them (0: every interval exact). '

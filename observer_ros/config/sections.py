@@ -337,6 +337,7 @@ class ObserverSection(Section):
     type: str = bound('observer.type')  # noqa: A003 (the parameter's name)
     initial_state: list = bound('observer.initial_state')
     input_wait: float = bound('observer.input_wait')
+    unstamped_input: str = bound('observer.unstamped_input')
     interval_resolution: float = bound('observer.interval_resolution')
     max_gap: float = bound('observer.max_gap')
     clock_tolerance: float = bound('observer.clock_tolerance')
