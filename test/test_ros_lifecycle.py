@@ -322,3 +322,30 @@ def test_autostart_console_script_is_active_and_stops_cleanly():
         code, _, err = process.stop()
     assert code == 0, err
     assert 'Traceback' not in err
+
+
+def test_reactivation_pairs_no_input_of_before_the_deactivation():
+    # Issue 27: after deactivate and activate the node warned "inputs are stamped -17.6 s
+    # from the measurements... different time bases?": the reset kept the old inputs.
+    system = validate_parameters(load_parameter_file(str(SEED003)))
+    before = plant_samples(system, 3)
+    gap_ns = 17_600_000_000  # the measurements after the re-activation, 17.6 s later
+    with ros_context('--params-file', str(SEED003)) as context:
+        observer = ObserverLifecycleNode(context=context)
+        driver = Driver(context)
+        with executor_with(context, observer, driver.node) as executor:
+            lifecycle = Lifecycle(driver.node, executor, 'observer')
+            assert lifecycle.change('configure') and lifecycle.change('activate')
+            assert spin_until(executor, lambda: driver.y.get_subscription_count() >= 1
+                              and driver.u.get_subscription_count() >= 1
+                              and driver.node.count_publishers('x_hat') >= 1, 10.0)
+            drive(driver, executor, observer, before, 0)
+            assert lifecycle.change('deactivate') and lifecycle.change('activate')
+            # Measurements without their inputs: each waits observer.input_wait, then goes on
+            # with the inputs at hand, which are none, not those of 17.6 s before.
+            for stamp, _, y in before:
+                driver.y.publish(joint_state(stamp + gap_ns, ['y1'], y))
+            assert spin_until(executor, lambda: len(driver.estimates) >= 6, 10.0)
+            counters = observer.counters()
+            assert counters['no_input'] >= 1, counters
+            assert 'time_base' not in getattr(observer, '_warned', set())
