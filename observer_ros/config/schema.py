@@ -345,6 +345,12 @@ PLANT_PARAMETERS = (
     _spec('plant.wait_for_command', BOOL, True,
           'Also wait for a publisher on u_cmd before the first sample (false for an open-loop '
           'run without state_feedback).', _PL),
+    _spec('plant.hold_without_command', BOOL, False,
+          'Real time: while no command is in effect (before the first one, and while the '
+          'latest is older than plant.command_timeout) the simulation holds its state, as a '
+          'brake holds a joint, instead of letting plant.safe_input and the disturbances '
+          'move it; samples are still published. True for a managed (lifecycle) controller, '
+          'which sends nothing until it is active.', _PL),
     _seconds('plant.start_timeout', 10.0, 'Wall-clock seconds to wait for those peers; then '
              'the plant starts anyway with a warning naming what is missing. 0 waits without '
              'limit (0 ... 3600).', 0.0, 3600.0, _PL),

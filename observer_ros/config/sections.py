@@ -420,6 +420,7 @@ class PlantSection(Section):
     lockstep_timeout: float = bound('plant.lockstep_timeout')
     lockstep_subscribers: int = bound('plant.lockstep_subscribers')
     wait_for_command: bool = bound('plant.wait_for_command')
+    hold_without_command: bool = bound('plant.hold_without_command')
     start_timeout: float = bound('plant.start_timeout')
     settle_time: float = bound('plant.settle_time')
     command_timeout: float = bound('plant.command_timeout')
