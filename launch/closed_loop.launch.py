@@ -39,6 +39,9 @@ def generate_launch_description() -> LaunchDescription:
                                                value_type=bool)}
     autostart = {'autostart': ParameterValue(LaunchConfiguration('autostart'), value_type=bool)}
     common = [params_file, sim_time]
+    # A managed controller sends nothing until it is active: the plant holds the joint.
+    held = {'plant.hold_without_command': ParameterValue(lifecycle, value_type=bool)}
+    plant = [params_file, sim_time, held]
     managed = [params_file, sim_time, autostart]
     executor = ['--executor', LaunchConfiguration('executor')]
     return LaunchDescription([
@@ -59,7 +62,7 @@ def generate_launch_description() -> LaunchDescription:
                               description='With lifecycle:=true, configure and activate them '
                               'at start.'),
         Node(package='observer_ros', executable='plant_simulator', name='plant_simulator',
-             namespace=namespace, parameters=common, arguments=executor, output='screen'),
+             namespace=namespace, parameters=plant, arguments=executor, output='screen'),
         Node(package='observer_ros', executable='observer', name='observer',
              namespace=namespace, parameters=common, arguments=executor, output='screen',
              condition=UnlessCondition(lifecycle)),

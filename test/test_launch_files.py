@@ -130,6 +130,9 @@ def test_every_executable_is_a_console_script_run_like_the_plain_one(source):
         assert ('autostart' in names) == (kind == 'LifecycleNode'), executable
         assert 'autostart' in PARAMETER_SPECS
         condition = options.get('condition')
+        if executable == 'plant_simulator' and 'lifecycle' in source.arguments:
+            # A managed controller sends nothing until active: the plant holds the joint.
+            assert 'plant.hold_without_command' in names
         if executable != 'plant_simulator':
             wanted = 'IfCondition' if kind == 'LifecycleNode' else 'UnlessCondition'
             assert condition.func.id == wanted, executable

@@ -24,13 +24,17 @@ from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState, GetState
 import numpy as np
 import pytest
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
 
+from conftest import CONFIG_DIR
 from observer_ros.config import (
     CONTROLLER, FEEDBACK, node_parameters, OBSERVER, validate_parameters)
 from observer_ros.config import load_parameter_file
 from observer_ros.core.streaming import EventStream
 from observer_ros.nodes.observer_controller_lifecycle import ObserverControllerLifecycleNode
 from observer_ros.nodes.observer_lifecycle import ObserverLifecycleNode
+from observer_ros.nodes.plant_simulator import PlantSimulatorNode
 from observer_ros.nodes.state_feedback_lifecycle import StateFeedbackLifecycleNode
 from ros_support import (
     executor_with, NodeProcess, overrides, PROCESS_START, ros_context, spin_until)
@@ -322,3 +326,64 @@ def test_autostart_console_script_is_active_and_stops_cleanly():
         code, _, err = process.stop()
     assert code == 0, err
     assert 'Traceback' not in err
+
+
+def test_reactivation_pairs_no_input_of_before_the_deactivation():
+    # Issue 27: after deactivate and activate the node warned "inputs are stamped -17.6 s
+    # from the measurements... different time bases?": the reset kept the old inputs.
+    system = validate_parameters(load_parameter_file(str(SEED003)))
+    before = plant_samples(system, 3)
+    gap_ns = 17_600_000_000  # the measurements after the re-activation, 17.6 s later
+    with ros_context('--params-file', str(SEED003)) as context:
+        observer = ObserverLifecycleNode(context=context)
+        driver = Driver(context)
+        with executor_with(context, observer, driver.node) as executor:
+            lifecycle = Lifecycle(driver.node, executor, 'observer')
+            assert lifecycle.change('configure') and lifecycle.change('activate')
+            assert spin_until(executor, lambda: driver.y.get_subscription_count() >= 1
+                              and driver.u.get_subscription_count() >= 1
+                              and driver.node.count_publishers('x_hat') >= 1, 10.0)
+            drive(driver, executor, observer, before, 0)
+            assert lifecycle.change('deactivate') and lifecycle.change('activate')
+            # Measurements without their inputs: each waits observer.input_wait, then goes on
+            # with the inputs at hand, which are none, not those of 17.6 s before.
+            for stamp, _, y in before:
+                driver.y.publish(joint_state(stamp + gap_ns, ['y1'], y))
+            assert spin_until(executor, lambda: len(driver.estimates) >= 6, 10.0)
+            counters = observer.counters()
+            assert counters['no_input'] >= 1, counters
+            assert 'time_base' not in getattr(observer, '_warned', set())
+
+
+@pytest.mark.parametrize('hold', [True, False])
+def test_the_recipe_joint_is_held_until_the_managed_controller_commands(hold):
+    # Issue 27: with lifecycle:=true the plant started after plant.start_timeout against an
+    # unconfigured controller and the joint ran away under its load (-30 to -75 rad before
+    # activation). With plant.hold_without_command it stays where it is until the first
+    # command, then the activated controller servos it to the reference.
+    settings = overrides(plant__hold_without_command=hold, plant__start_timeout=0.2,
+                         plant__settle_time=0.0, plant__disturbance_time=0.0)
+    with ros_context('--params-file', str(CONFIG_DIR / 'robot_joint.yaml')) as context:
+        plant = PlantSimulatorNode(context=context, parameter_overrides=settings)
+        controller = ObserverControllerLifecycleNode(
+            context=context, parameter_overrides=overrides(feedback__timeout=30.0))
+        helper = Node('reference_publisher', context=context)
+        reference = helper.create_publisher(JointState, 'reference', 10)
+        helper.create_timer(0.05, lambda: reference.publish(
+            JointState(name=['shoulder'], position=[0.5])))
+        with executor_with(context, plant, controller, helper) as executor:
+            lifecycle = Lifecycle(helper, executor, 'observer_controller')
+            # Unconfigured: no u_cmd publisher; the plant starts after its start timeout.
+            assert spin_until(executor, lambda: plant.index >= 50, 30.0)
+            position = plant.simulator.x[0]
+            if not hold:
+                assert position < -0.1, position  # the load drives the joint away
+                return
+            assert position == 0.0 and plant.counters['held_samples'] >= 49
+            assert lifecycle.change('configure') and lifecycle.change('activate')
+            released = plant.index
+            assert spin_until(executor, lambda: plant.index >= released + 400, 60.0)
+            assert abs(plant.simulator.x[0] - 0.5) < 1e-3, plant.simulator.x
+            held, now = plant.counters['held_samples'], plant.index
+            assert spin_until(executor, lambda: plant.index >= now + 50, 30.0)
+            assert plant.counters['held_samples'] == held  # commanded: no longer held

@@ -268,6 +268,10 @@ class ObserverSetup:
         ``topics.<topic>.limit`` of ``y``, ``u``, ``x_hat`` and ``innovation``.
     input_stamped : bool
         Whether ``u`` carries header stamps (``topics.u.type``).
+    unstamped_input : str
+        ``observer.unstamped_input``: ``arrival`` or ``next_measurement`` (how the node
+        stamps an unstamped ``u``; see
+        :meth:`~observer_ros.core.streaming.EventStream.hold_input`).
     joint_states : JointStateSelection or None
         ``observer.joint_*`` when given.
     binding : Binding
@@ -300,6 +304,7 @@ class ObserverSetup:
     sources: Optional[SourcesSetup] = None
     history_ns: int = 0
     angles: Angles = Angles()
+    unstamped_input: str = 'arrival'
 
     @classmethod
     def of(cls, result: DesignedObserver, sections: Sections,
@@ -315,7 +320,8 @@ class ObserverSetup:
                    _ns(section.interval_resolution), _ns(section.max_gap),
                    _ns(section.clock_tolerance), _ns(section.input_wait), section.publish_rate,
                    limits, topics['u'].stamped, joint_states, result.binding,
-                   result.design_source, result.sources, result.history_ns, result.angles)
+                   result.design_source, result.sources, result.history_ns, result.angles,
+                   section.unstamped_input)
 
     @property
     def form(self) -> str:

@@ -64,6 +64,8 @@ class PlantSettings:
         Wall-clock seconds.
     lockstep_subscribers : int
     wait_for_command : bool
+    hold_without_command : bool
+        Real time: the state is held while no command is in effect.
 
     """
 
@@ -85,6 +87,7 @@ class PlantSettings:
     wait_for_command: bool = True
     start_timeout: float = 10.0
     settle_time: float = 0.5
+    hold_without_command: bool = False
 
     @property
     def period_ns(self) -> int:
@@ -141,4 +144,4 @@ def plant_settings(sections: Sections, augmentation: Augmentation) -> PlantSetti
         lockstep_timeout=section.lockstep_timeout,
         lockstep_subscribers=section.lockstep_subscribers,
         wait_for_command=section.wait_for_command, start_timeout=section.start_timeout,
-        settle_time=section.settle_time)
+        settle_time=section.settle_time, hold_without_command=section.hold_without_command)

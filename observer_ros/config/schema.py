@@ -46,6 +46,9 @@ COMBINED_NODES = {CONTROLLER: (OBSERVER, FEEDBACK)}
 #: Where the controller takes the input of its next prediction from.
 CONTROLLER_INPUTS = ('u', 'command')
 
+#: How the observer stamps an unstamped input (``observer.unstamped_input``).
+UNSTAMPED_INPUTS = ('arrival', 'next_measurement')
+
 
 @dataclass(frozen=True)
 class ParameterSpec(Argument):
@@ -211,6 +214,12 @@ OBSERVER_STREAM = (
     _seconds('observer.input_wait', 0.05, 'Wall-clock seconds a measurement may wait for the '
              'stamped input of its interval before the latest earlier input is used '
              '(0 ... 10).', 0.0, 10.0, _OBS),
+    _spec('observer.unstamped_input', STRING, 'arrival', 'How an unstamped u '
+          '(float64_multi_array, or a zero stamp) is stamped: arrival (the node clock when it '
+          'arrives; every sample period of delay pairs it one interval later) | '
+          'next_measurement (the stamp of the next measurement: applied from that sample '
+          'on, as a driver applying the latest command at each sample does, however late '
+          'it arrived).', _OBS, choices=UNSTAMPED_INPUTS),
     _seconds('observer.interval_resolution', 0.0,
              'Seconds: sample intervals are rounded to a multiple of this before the '
              'observer is discretized and designed for them (0: every interval exact). '
@@ -336,6 +345,12 @@ PLANT_PARAMETERS = (
     _spec('plant.wait_for_command', BOOL, True,
           'Also wait for a publisher on u_cmd before the first sample (false for an open-loop '
           'run without state_feedback).', _PL),
+    _spec('plant.hold_without_command', BOOL, False,
+          'Real time: while no command is in effect (before the first one, and while the '
+          'latest is older than plant.command_timeout) the simulation holds its state, as a '
+          'brake holds a joint, instead of letting plant.safe_input and the disturbances '
+          'move it; samples are still published. True for a managed (lifecycle) controller, '
+          'which sends nothing until it is active.', _PL),
     _seconds('plant.start_timeout', 10.0, 'Wall-clock seconds to wait for those peers; then '
              'the plant starts anyway with a warning naming what is missing. 0 waits without '
              'limit (0 ... 3600).', 0.0, 3600.0, _PL),

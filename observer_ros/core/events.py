@@ -837,6 +837,11 @@ class EventEngine:
             return self._base_ns
         return self.entries[0].stamp_ns if self.entries else self.consumer.stamp_ns
 
+    def clear_inputs(self) -> None:
+        """Forget every input, as at the start (a restart in another time)."""
+        self.inputs = InputHistory()
+        self.inputs_absent = self.autonomous
+
     def clear_history(self) -> None:
         """Forget the history (the consumer starts again: :meth:`EventStream.reset`)."""
         self._retire(len(self.entries))

@@ -184,6 +184,8 @@ class EventStream:
         self._result_limit = min(self.limits.estimate, self.limits.innovation)
         self._steady = 0  # steady measurements not yet added to the counters
         self._steady_key: Optional[tuple] = None
+        self._held_input: Optional[tuple] = None  # (u, now_ns) of hold_input
+        self._last_measurement_ns: Optional[int] = None  # stamp of the latest measurement
 
     def _check_sources(self, sources: tuple, output_names: Optional[Sequence[str]]) -> None:
         """Refuse what the estimator cannot do with these sources (at start-up)."""
@@ -276,11 +278,22 @@ class EventStream:
         """
         return self.engine.waiting()
 
-    def reset(self) -> None:
-        """Restart the estimator from its initial state; inputs are kept, the history not."""
+    def reset(self, keep_inputs: bool = True) -> None:
+        """
+        Restart the estimator from its initial state; the history is forgotten.
+
+        ``keep_inputs``: the inputs are kept (``~/reset`` in a running loop: the input of the
+        next interval is already here). False forgets them too, and an input held for the
+        next measurement (:meth:`hold_input`): a lifecycle deactivation, after which the
+        old inputs, seconds older than the next measurement, would be paired with it.
+        """
         self.estimator.reset()
         self.engine.queue.clear()
         self.engine.clear_history()
+        if not keep_inputs:
+            self.engine.clear_inputs()
+            self._held_input = self._last_measurement_ns = None
+            self._steady_key = None
 
     def source_report(self, now_ns: Optional[int] = None) -> dict:
         """``{source name: SourceStatus}`` (see :meth:`EventEngine.source_report`)."""
@@ -318,6 +331,25 @@ class EventStream:
             self.prepare()
         return released
 
+    def hold_input(self, u, now_ns: Optional[int] = None) -> list:
+        """
+        Stamp an unstamped input with the measurement it is applied from; return the estimates.
+
+        The input is taken as applied from the first measurement stamped at its arrival
+        (``now_ns``, the receiver's clock, equal to the latest measurement's stamp: a
+        simulated clock that has not moved since that sample) or arriving after it (it is
+        held until then; a later input replaces one still held), as a driver that applies
+        the latest command at each sample does (``observer.unstamped_input:
+        next_measurement``). Its pairing then does not depend on how late it arrived, where
+        an input stamped on arrival is paired one more interval late for every sample
+        period of delay.
+        """
+        if now_ns is not None and now_ns == self._last_measurement_ns:
+            self._held_input = None
+            return self.add_input(now_ns, u, now_ns)
+        self._held_input = (u, now_ns)
+        return []
+
     def add_measurement(self, stamp_ns: int, y, now_ns: Optional[int] = None,
                         arrival_ns: int = 0, source: str = MEASUREMENT) -> list:
         """
@@ -325,8 +357,15 @@ class EventStream:
 
         ``now_ns`` is the receiver's clock at arrival (see :meth:`add_input`);
         ``arrival_ns`` any monotonic arrival time the caller wants back from :meth:`waiting`
-        (the node's steady clock, to bound the wait for the input).
+        (the node's steady clock, to bound the wait for the input). An input of
+        :meth:`hold_input` is stored first, stamped ``stamp_ns``.
         """
+        self._last_measurement_ns = stamp_ns
+        held = self._held_input
+        if held is not None:
+            self._held_input = None
+            released = self.add_input(stamp_ns, held[0], held[1])
+            return released + self.add_measurement(stamp_ns, y, now_ns, arrival_ns, source)
         key = self._steady_key
         if (key is not None and type(y) is list and len(y) == 1 and type(y[0]) is float
                 and source == MEASUREMENT):

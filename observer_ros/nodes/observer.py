@@ -104,6 +104,8 @@ class ObserverWiring:
             self.topic_subscription(self.codecs['u'].message_class, 'u', self._on_input)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.input_wait_ns = setup.input_wait_ns
+        #: observer.unstamped_input: next_measurement holds an unstamped u for the next y.
+        self.hold_unstamped = setup.unstamped_input == 'next_measurement'
         self.wait_timer = self.create_timer(  # the steady clock is time.monotonic_ns's
             max(self.input_wait_ns, 1) / NANOSECONDS, self._on_wait_expired,
             clock=Clock(clock_type=ClockType.STEADY_TIME))
@@ -147,7 +149,7 @@ class ObserverWiring:
         self._waiting_for = None
         if self.prediction_timer is not None:
             self.prediction_timer.cancel()
-        self.stream.reset()
+        self.stream.reset(keep_inputs=False)  # inputs of before would pair with new samples
         self._last_published_ns = -1
 
     def resume(self) -> None:
@@ -216,7 +218,7 @@ class ObserverWiring:
             return floor
         return self._now_ns()
 
-    def _decode(self, topic: str, message, codec=None):
+    def _decode(self, topic: str, message, codec=None, on_arrival: bool = True):
         codec = codec or self.codecs[topic]
         try:
             stamp, vector = codec.decode_values(message)
@@ -228,7 +230,7 @@ class ObserverWiring:
             return None, None
         if topic in self.health.monitors:
             self.health.tick(topic, stamp)
-        if stamp is None:
+        if stamp is None and on_arrival:
             if codec.stamped:
                 self.warn_once(f'zero stamp {topic}',
                                f'{topic}: messages with a zero stamp are stamped on arrival')
@@ -254,9 +256,13 @@ class ObserverWiring:
         return [sources_check(report, self.source_drops, self.stream.engine.history_depth())]
 
     def _on_input(self, message) -> None:
-        stamp, u = self._decode('u', message)
-        if u is not None:
-            self._run(self.stream.add_input, stamp, u, self._clock_for(stamp))
+        stamp, u = self._decode('u', message, on_arrival=not self.hold_unstamped)
+        if u is None:
+            return
+        if stamp is None:  # observer.unstamped_input: next_measurement
+            self._run(self.stream.hold_input, u, self._now_ns())
+            return
+        self._run(self.stream.add_input, stamp, u, self._clock_for(stamp))
 
     def _on_wait_expired(self) -> None:
         self.wait_timer.cancel()

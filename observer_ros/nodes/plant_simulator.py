@@ -52,6 +52,14 @@ deterministic and as fast as the nodes answer.
 A model without inputs (``model.B`` empty) is simulated autonomously: no ``u_cmd``
 subscription, no ``u`` topic, no wait for a command (real time only).
 
+With ``plant.hold_without_command`` (real time) the simulation holds its state over every
+interval that starts without a command in effect (before the first command, and in a
+command outage), as a brake holds a joint: ``plant.safe_input``, the disturbances and the
+noise do not move it, the samples (``y``, the safe input on ``u``) are still published and
+counted as ``held_samples``. A managed controller sends nothing until it is active: without
+it the joint runs away under its load while the controller waits for ``configure`` and
+``activate``.
+
 ``plant.input_offset`` adds a constant input disturbance to the applied input; the
 published ``u`` is the applied command without it (what a controller knows).
 """
@@ -101,6 +109,9 @@ class PlantSimulatorNode(ConfiguredNode):
         self.settle_ns = round(plant.settle_time * NANOSECONDS)
         self.command_timeout_ns = round(plant.command_timeout * NANOSECONDS)
         self.safe_input = self.simulator.saturate(plant.safe_input)
+        self.hold_without_command = plant.hold_without_command and not self.autonomous
+        #: Whether the interval after the current sample is held (no command in effect).
+        self.holding = False
         self.command_limit = system.topics['u_cmd'].limit
         topics = ('y', 'x_true') if self.autonomous else ('y', 'u', 'x_true')
         self.codecs = {topic: VectorCodec.for_topic(system, topic)
@@ -194,6 +205,7 @@ class PlantSimulatorNode(ConfiguredNode):
         ``u`` before ``y``, with the same stamp); ``y = C x`` without a feedthrough.
         """
         command, commanded = self._command_in_effect()
+        self.holding = self.hold_without_command and not commanded
         y = self.simulator.measure(command)
         self._publish_within('x_true', self.simulator.x)
         applied = self.simulator.saturate(command)
@@ -252,6 +264,9 @@ class PlantSimulatorNode(ConfiguredNode):
 
     def _simulate(self, periods: int) -> None:
         """Advance the plant ``periods`` sample periods with the applied input held."""
+        if self.holding:  # plant.hold_without_command: no command in effect, braked
+            self.counters['held_samples'] += periods
+            return
         if self.simulator.model.is_discrete:
             for _ in range(periods):  # a discrete model advances one period per step
                 self.simulator.step(self.applied, self.period)
