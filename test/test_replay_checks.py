@@ -64,12 +64,13 @@ def drive_parameters(path, u_type='twist', sources=None, **observer):
 
 
 def write_drive_bag(path, samples=200, storage='mcap', stamp_start_ns=WALL_START_NS,
-                    u_type='twist', seed=5):
+                    u_type='twist', seed=5, command_delay_ns=-1000):
     """
     Record ``/joint_states`` (wheel velocities, stamped) and ``/cmd_vel`` (unstamped).
 
     The joint states are stamped from ``stamp_start_ns`` (0: simulation time) and logged in
-    wall time; each command is logged 1 us before the sample it acts from.
+    wall time; each command is logged 1 us before the sample it acts from
+    (``command_delay_ns`` after it).
     """
     rng = np.random.default_rng(seed)
     speeds = np.zeros(2)
@@ -88,7 +89,7 @@ def write_drive_bag(path, samples=200, storage='mcap', stamp_start_ns=WALL_START
                                                            angular=vector(x=0.0, y=0.0, z=u[1]))
             else:
                 command = float64_array(u)
-            writer.write(commands, logged - 1000, serialize(command))
+            writer.write(commands, logged + command_delay_ns, serialize(command))
             measured = speeds + rng.normal(0.0, 0.1, size=2)
             writer.write(joints, logged, serialize(joint_state(
                 stamp_start_ns + index * PERIOD_NS, [*JOINTS, 'caster'], [0.0, 0.0, 0.0],
@@ -367,3 +368,40 @@ def test_a_report_of_measurement_sources_takes_their_partial_innovations(tmp_pat
     assert replay_main([str(tmp_path / 'bag'), str(params), '--u-topic', '/cmd_vel',
                         '--report', str(tmp_path / 'report')]) == 0, capsys.readouterr().err
     assert (tmp_path / 'report' / 'replay.html').exists()
+
+
+@pytest.mark.parametrize('u_type', ['twist', 'float64_multi_array'])
+def test_replay_holds_unstamped_inputs_for_the_next_measurement_as_the_node_does(
+        tmp_path, u_type):
+    # observer.unstamped_input: next_measurement: the node holds each unstamped u for the
+    # next measurement (EventStream.hold_input); replay stamped it with its log time, so
+    # offline and online differed. Both paths (message by message for a Twist, arrays for
+    # a Float64MultiArray) against the stream fed in bag order as the node feeds it.
+    from observer_ros.bags.replay import load_system, recorded_events
+    from observer_ros.core.events import INPUT
+    # Measurements that reach the recorder 2.5 periods after their stamps, each command
+    # just after the measurement of the sample it acts from: stamped on arrival, it would
+    # be paired 2 intervals late.
+    write_drive_bag(tmp_path / 'bag', samples=150, u_type=u_type,
+                    stamp_start_ns=WALL_START_NS - 5 * PERIOD_NS // 2, command_delay_ns=1000)
+    params = drive_parameters(tmp_path / 'drive.yaml', u_type,
+                              unstamped_input='next_measurement')
+    offline = replay_bag(tmp_path / 'bag', params, '/joint_states', '/cmd_vel')
+    system = load_system(params)
+    events, _ = recorded_events(tmp_path / 'bag', system, '/cmd_vel', False, '/joint_states')
+    stream = system.observer.make_stream()
+    online = []
+    for event in events:
+        if event.source == INPUT:
+            online += stream.hold_input(event.values, event.arrival_ns)
+        else:
+            online += stream.add_measurement(event.stamp_ns, event.values, event.arrival_ns,
+                                             event.arrival_ns, event.source)
+    online += stream.flush()
+    assert len(online) == len(offline.stamps_ns) == 150
+    np.testing.assert_array_equal([sample.stamp_ns for sample in online], offline.stamps_ns)
+    assert np.array_equal(np.array([sample.estimate for sample in online]),
+                          offline.estimates)
+    logged = replay_bag(tmp_path / 'bag', drive_parameters(tmp_path / 'logged.yaml', u_type),
+                        '/joint_states', '/cmd_vel')
+    assert not np.array_equal(logged.estimates, offline.estimates)

@@ -42,7 +42,7 @@ from observer_ros.config.schema import (
 from observer_ros.core.estimates import replay_arrays
 from observer_ros.core.evaluation import align
 from observer_ros.core.events import INPUT, MEASUREMENT
-from observer_ros.core.streaming import RecordedEvent
+from observer_ros.core.streaming import next_measurement_stamps, RecordedEvent
 from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.cdr import DecodeError, FieldReader, MessageReader, parse_layout
 
@@ -344,6 +344,11 @@ def replay_data(bag, system: Configuration, outputs: TopicData, inputs: TopicDat
         check_time_bases(outputs, inputs, max_gap_ns, str(bag), absolute_topic(y_topic),
                          absolute_topic(u_topic), *([log_time_advice] if log_time_advice
                                                     else []))
+    if setup.unstamped_input == 'next_measurement' and not input_stamped:
+        # As the node holds each unstamped u for the next measurement (hold_input).
+        kept, stamps = next_measurement_stamps(inputs.log_times_ns, outputs.log_times_ns,
+                                               outputs.stamps_ns)
+        inputs = TopicData(stamps, inputs.log_times_ns[kept], inputs.values[kept])
     stream = setup.make_stream()
     stream.input_stamped = input_stamped
     stream.engine.retired = []
@@ -572,6 +577,8 @@ def _replay_sources(bag, system: Configuration, y_topic: str, u_topic: str,
     stream = system.observer.make_stream()
     if use_log_time:
         stream.input_stamped = False
+    if system.observer.unstamped_input == 'next_measurement' and not stream.input_stamped:
+        events = _held_inputs(events)
     stream.engine.retired = []
     causes: list = []
     samples = stream.replay_events(events, causes)
@@ -592,6 +599,18 @@ def _replay_sources(bag, system: Configuration, y_topic: str, u_topic: str,
                         arrays.covariances, None, None,
                         stream_warnings(stream, str(bag), y_topic, u_topic), labels,
                         _in_order(stream, arrays, labels))
+
+
+def _held_inputs(events: list) -> list:
+    """Stamp each unstamped input with the next measurement in bag order (hold_input's rule)."""
+    order = np.arange(len(events))
+    is_input = np.array([event.source == INPUT for event in events], dtype=bool)
+    measured = order[~is_input]
+    kept, stamps = next_measurement_stamps(order[is_input], measured,
+                                           [events[i].stamp_ns for i in measured])
+    held = dict(zip(order[is_input][kept].tolist(), stamps.tolist()))
+    return [event._replace(stamp_ns=held[index]) if index in held else event
+            for index, event in enumerate(events) if event.source != INPUT or index in held]
 
 
 def _covariances(samples: list, n_states: int) -> Optional[np.ndarray]:

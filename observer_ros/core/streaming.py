@@ -94,6 +94,46 @@ class RecordedEvent(NamedTuple):
     arrival_ns: int = 0
 
 
+def next_measurement_stamps(input_arrivals, measurement_arrivals,
+                            measurement_stamps) -> tuple:
+    """
+    Stamp unstamped inputs as :meth:`EventStream.hold_input` does, for a recording.
+
+    Each input is applied from the first measurement that arrives at or after it and is
+    stamped with that measurement's stamp; of several inputs held for one measurement the
+    last replaces the others, and an input after the last measurement is never applied.
+    (``hold_input``'s other case, an input arriving when the receiver's clock equals the
+    latest measurement's stamp, needs that clock, which a recording does not keep.)
+
+    Parameters
+    ----------
+    input_arrivals : array_like of int, shape (k,)
+        Arrival (log) order of the inputs, nondecreasing.
+    measurement_arrivals : array_like of int, shape (m,)
+        Arrival order of the measurements, nondecreasing, comparable with the inputs'.
+    measurement_stamps : array_like of int, shape (m,)
+
+    Returns
+    -------
+    kept : numpy.ndarray of int
+        Indices of the inputs that are applied, in order.
+    stamps : numpy.ndarray of int
+        Their stamps.
+
+    Examples
+    --------
+    >>> from observer_ros.core.streaming import next_measurement_stamps
+    >>> next_measurement_stamps([5, 12, 13, 40], [10, 20, 30], [100, 200, 300])
+    (array([0, 2]), array([100, 200]))
+
+    """
+    at = np.searchsorted(np.asarray(measurement_arrivals), np.asarray(input_arrivals),
+                         side='left')
+    last = np.append(at[1:] != at[:-1], True) if len(at) else np.zeros(0, dtype=bool)
+    kept = np.flatnonzero(last & (at < len(measurement_stamps)))
+    return kept, np.asarray(measurement_stamps, dtype=np.int64)[at[kept]]
+
+
 class EventStream:
     """
     Run an estimator on stamped inputs and measurements, paired by the event engine.
