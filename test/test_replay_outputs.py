@@ -57,9 +57,10 @@ def test_every_error_comes_before_anything_is_written(tmp_path):
     out, csv, report = outputs / 'x_hat', outputs / 'x_hat.csv', outputs / 'report'
     writes = ['--output', out, '--csv', csv]
     topics = ['--y-topic', ROBOT_TOPICS[0], '--u-topic', ROBOT_TOPICS[1]]
-    # No truth topic for --report.
-    one_error_line(run_replay(bag, params, *topics, *writes, '--report', report),
-                   '--report needs the true state', 'no topic /x_true; the bag has')
+    # A truth topic named for --report that the bag does not have (without --truth, a bag
+    # with no /x_true gets a report without errors: test_replay_checks).
+    one_error_line(run_replay(bag, params, *topics, *writes, '--report', report, '--truth',
+                              '/x_true'), '--report: ', 'no topic /x_true; the bag has')
     assert not outputs.exists()
     # A bad parameter file, a missing topic, a bag that cannot be read.
     broken = tmp_path / 'broken.yaml'

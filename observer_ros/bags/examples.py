@@ -34,6 +34,7 @@ import yaml
 
 from observer_ros.bags.storage import TopicToWrite, write_bag
 from observer_ros.core.discretize import van_loan, zero_order_hold
+from observer_ros.core.observers.kalman import NAME as KALMAN
 
 #: Start of the simulated stamps (ns): a wall-clock-like time.
 START_NS = 1_700_000_000 * 10**9
@@ -95,7 +96,7 @@ class NoisyPlant:
         if not self.continuous:
             model['dt'] = float(self.period)
         section = {'model': model,
-                   'observer': {'type': 'kalman', 'process_noise': _flat(q),
+                   'observer': {'type': KALMAN, 'process_noise': _flat(q),
                                 'measurement_noise': _flat(r), **observer}}
         if self.continuous:
             section['plant'] = {'rate_hz': 1.0 / self.period}
