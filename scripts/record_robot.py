@@ -15,21 +15,26 @@
 """
 Write a robot-like rosbag2 bag with jittered stamps: the walkthrough's recording.
 
-A differential-drive base (doc/walkthrough.md) driven by ``/cmd_vel``
-(``geometry_msgs/Twist``, unstamped, a new random command before every
-``--command-every``-th sample, sent 1 ms before it: a controller synchronised with the
-driver, so that the sample sees the new command): its speed ``v`` and turn rate ``w`` follow the commanded
-ones with a time constant of 0.2 s, ``v' = 5 (v_cmd - v)``, ``w' = 5 (w_cmd - w)``, plus
-white process noise. One driver samples, at ``--rate`` Hz with each stamp off its period by
-up to ``--jitter`` seconds (uniformly), the wheels on ``/joint_states``
-(``sensor_msgs/JointState``: position and velocity of ``left_wheel_joint`` and
-``right_wheel_joint``, radius 0.1 m, 0.4 m apart: ``10 v -+ 2 w`` rad/s) and an IMU on
-``/imu/data`` (``sensor_msgs/Imu``: ``linear_acceleration.x = v' = 5 v_cmd - 5 v`` and
-``angular_velocity.z = w``), both with the same stamp and white measurement noise. The
-accelerometer sees the command directly: its row of the feedthrough ``D`` is ``[5, 0]``.
-The motion is simulated exactly between events (a command, a sample). The messages are
-logged as a recorder logs them: the commands when sent, the sensors 0.3 ms after their
-stamps.
+A differential-drive base (doc/walkthrough.md) under a closed velocity loop: a random
+velocity reference ``[v_ref, w_ref]``, a new one with every ``--command-every``-th sample,
+and before each sample but the first a command on ``/cmd_vel`` (``geometry_msgs/Twist``,
+unstamped) computed from the latest sample's measured (noisy) speeds and the reference
+(the base is at rest, with no command, until the controller has a measurement),
+``v_cmd = v_ref + k (v_ref - v_meas)`` and ``w_cmd = w_ref + k (w_ref - w_meas)``, with
+``k`` the ``--gain`` (0 sends the reference as it is), ``v_meas`` the mean of the wheel
+velocities over 10 and ``w_meas`` the gyro. The command is sent 1 ms before the next
+sample (a controller synchronised with the driver), so that sample sees it. The base's
+speed ``v`` and turn rate ``w`` follow the commanded ones with a time constant of 0.2 s,
+``v' = 5 (v_cmd - v)``, ``w' = 5 (w_cmd - w)``, plus white process noise. One driver
+samples, at ``--rate`` Hz with each stamp off its period by up to ``--jitter`` seconds
+(uniformly), the wheels on ``/joint_states`` (``sensor_msgs/JointState``: position and
+velocity of ``left_wheel_joint`` and ``right_wheel_joint``, radius 0.1 m, 0.4 m apart:
+``10 v -+ 2 w`` rad/s) and an IMU on ``/imu/data`` (``sensor_msgs/Imu``:
+``linear_acceleration.x = v' = 5 v_cmd - 5 v`` and ``angular_velocity.z = w``), both with
+the same stamp and white measurement noise. The accelerometer sees the command directly:
+its row of the feedthrough ``D`` is ``[5, 0]``. The motion is simulated exactly between
+events (a command, a sample). The messages are logged as a recorder logs them: the
+commands when sent, the sensors 0.3 ms after their stamps.
 """
 
 import argparse
@@ -54,7 +59,7 @@ PROCESS_NOISE = (0.002, 0.008)
 SPEED_LIMIT, TURN_LIMIT = 0.5, 1.0
 #: How long after its stamp the recorder logs a sensor message (ns).
 LOG_DELAY_NS = 300_000
-#: How long before its sample a command is sent (ns).
+#: How long before the next sample a command is sent (ns).
 COMMAND_LEAD_NS = 1_000_000
 #: Where the recording starts (ns since the epoch).
 START_NS = 1_700_000_000 * 10**9
@@ -72,7 +77,10 @@ def parse_arguments(argv):
     parser.add_argument('--jitter', type=float, default=0.003,
                         help='largest offset of a stamp from its period, s (default 0.003)')
     parser.add_argument('--command-every', type=int, default=20,
-                        help='samples between commands (default 20)')
+                        help='samples between changes of the reference (default 20)')
+    parser.add_argument('--gain', type=float, default=1.0,
+                        help='feedback gain k of the velocity loop, v_cmd = v_ref + '
+                             'k (v_ref - v_meas); 0 sends the reference (default 1)')
     parser.add_argument('--seed', type=int, default=0, help='random seed (default 0)')
     parser.add_argument('--storage', choices=STORAGES, default='mcap',
                         help='bag storage (default mcap)')
@@ -81,6 +89,8 @@ def parse_arguments(argv):
         if not getattr(arguments, name) > 0.0:
             parser.error(f'--{name.replace("_", "-")}: expected a positive number, got '
                          f'{getattr(arguments, name)}')
+    if not (math.isfinite(arguments.gain) and arguments.gain >= 0.0):
+        parser.error(f'--gain: expected a finite number >= 0, got {arguments.gain}')
     period = 1.0 / arguments.rate
     if not 0.0 <= arguments.jitter < period / 2:
         parser.error(f'--jitter: expected 0 <= jitter < half the period ({period / 2:g} s), '
@@ -92,12 +102,13 @@ def parse_arguments(argv):
 
 def simulate(arguments):
     """
-    Simulate the base; return the commands and the samples.
+    Simulate the base under its velocity loop; return the commands and the samples.
 
     Returns
     -------
     commands : list of (int, ndarray)
-        Send time (ns) and ``[v_cmd, w_cmd]`` of each command.
+        Send time (ns) and ``[v_cmd, w_cmd]`` of each command, one before each sample
+        but the first.
     samples : list of (int, ndarray, ndarray, ndarray)
         Stamp (ns), wheel positions, wheel velocities ``(2,)`` and ``[accel_x, gyro_z]``.
 
@@ -108,36 +119,45 @@ def simulate(arguments):
     jitter_ns = round(arguments.jitter * NS)
     stamps = [k * period_ns + int(rng.integers(-jitter_ns, jitter_ns + 1)) if k else 0
               for k in range(count)]
-    commands = [(max(stamps[k] - COMMAND_LEAD_NS, 0),
-                 rng.uniform([-SPEED_LIMIT, -TURN_LIMIT], [SPEED_LIMIT, TURN_LIMIT]))
-                for k in range(0, count, arguments.command_every)]
-    state = np.zeros(2)
-    wheel_angle = np.zeros(2)
+    references = [rng.uniform([-SPEED_LIMIT, -TURN_LIMIT], [SPEED_LIMIT, TURN_LIMIT])
+                  for _ in range(0, count, arguments.command_every)]
     mix = np.array([[WHEEL_PER_SPEED, -WHEEL_PER_TURN], [WHEEL_PER_SPEED, WHEEL_PER_TURN]])
-    events = sorted([(t, 0, k) for k, (t, _) in enumerate(commands)]
-                    + [(t, 1, k) for k, t in enumerate(stamps)])
-    time_ns, command = 0, np.zeros(2)
-    samples = []
-    for event_ns, kind, index in events:
+    state, wheel_angle, command = np.zeros(2), np.zeros(2), np.zeros(2)
+    time_ns = 0
+
+    def advance(event_ns):
+        # The motion under the held command, exact over the step, then the process noise.
+        nonlocal state, time_ns
         step = (event_ns - time_ns) / NS
-        if step > 0.0:
-            decay = math.exp(-RESPONSE * step)
-            start = state.copy()
-            state = decay * state + (1.0 - decay) * command
-            # The wheel angle integrates the wheel velocity exactly over the step.
-            mean = command * step + (start - command) * (1.0 - decay) / RESPONSE
-            wheel_angle += mix @ mean
-            state += rng.normal(0.0, np.sqrt(np.array(PROCESS_NOISE) * step))
-            time_ns = event_ns
-        if kind == 0:
-            command = commands[index][1]
-            continue
-        wheels = mix @ state
-        samples.append((START_NS + event_ns, wheel_angle.copy(),
-                        wheels + rng.normal(0.0, WHEEL_NOISE, 2),
-                        np.array([RESPONSE * (command[0] - state[0]), state[1]])
-                        + rng.normal(0.0, [ACCEL_NOISE, GYRO_NOISE])))
-    return [(START_NS + t, c) for t, c in commands], samples
+        if step <= 0.0:
+            return
+        decay = math.exp(-RESPONSE * step)
+        start = state.copy()
+        state = decay * state + (1.0 - decay) * command
+        # The wheel angle integrates the wheel velocity exactly over the step.
+        mean = command * step + (start - command) * (1.0 - decay) / RESPONSE
+        wheel_angle[:] += mix @ mean
+        state = state + rng.normal(0.0, np.sqrt(np.array(PROCESS_NOISE) * step))
+        time_ns = event_ns
+
+    commands, samples = [], []
+    for index, stamp_ns in enumerate(stamps):
+        advance(stamp_ns)
+        wheels = mix @ state + rng.normal(0.0, WHEEL_NOISE, 2)
+        imu = (np.array([RESPONSE * (command[0] - state[0]), state[1]])
+               + rng.normal(0.0, [ACCEL_NOISE, GYRO_NOISE]))
+        samples.append((START_NS + stamp_ns, wheel_angle.copy(), wheels, imu))
+        if index + 1 == count:
+            break  # the recording ends with this sample; no command is sent after it
+        # The controller: the reference against this sample's measured speeds, sent for the
+        # next sample.
+        reference = references[index // arguments.command_every]
+        measured = np.array([np.mean(wheels) / WHEEL_PER_SPEED, imu[1]])
+        sent_ns = stamps[index + 1] - COMMAND_LEAD_NS
+        advance(sent_ns)
+        command = reference + arguments.gain * (reference - measured)
+        commands.append((START_NS + sent_ns, command))
+    return commands, samples
 
 
 def write(arguments, commands, samples):

@@ -18,6 +18,8 @@ import importlib.util
 
 import numpy as np
 import pytest
+from rosbags.highlevel import AnyReader
+from rosbags.typesys import get_typestore, Stores
 
 from conftest import REPOSITORY
 from observer_ros.bags.storage import read_topic
@@ -56,6 +58,39 @@ def test_the_recording_is_jittered_and_robot_like(robot_bag, capsys):
     assert np.mean(np.abs(intervals - 20.0) > 0.4) > 0.8
 
 
+def read_messages(bag, topic):
+    """Return the log times and messages of one topic of a bag."""
+    with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as reader:
+        connections = [c for c in reader.connections if c.topic == topic]
+        return [(log_ns, reader.deserialize(raw, connection.msgtype))
+                for connection, log_ns, raw in reader.messages(connections=connections)]
+
+
+def test_each_command_closes_the_loop_on_the_latest_measurement(robot_bag):
+    # The open-loop recording sent one command per 20 samples whatever the sensors read; a
+    # velocity loop sends one before each sample but the first, computed from the latest
+    # one: v_cmd = v_ref + k (v_ref - v_meas) with k = 1, v_meas the mean wheel velocity
+    # / 10 and w_meas the gyro, so v_cmd + v_meas is 2 v_ref, constant while the reference
+    # holds (the commands computed from samples 20 j .. 20 j + 19).
+    commands = read_messages(robot_bag, '/cmd_vel')
+    wheels = read_messages(robot_bag, '/joint_states')
+    imu = read_messages(robot_bag, '/imu/data')
+    assert len(commands) == len(wheels) - 1 == len(imu) - 1 == 1999
+    sent = np.array([log_ns for log_ns, _ in commands])
+    logged = np.array([log_ns for log_ns, _ in wheels])
+    # Each command is sent between the sample it is computed from and the next one.
+    assert np.all(logged[:-1] < sent) and np.all(sent < logged[1:])
+    command = np.array([[m.linear.x, m.angular.z] for _, m in commands])
+    measured = np.array([[np.mean(m.velocity) / 10.0 for _, m in wheels[:-1]],
+                         [m.angular_velocity.z for _, m in imu[:-1]]]).T
+    twice_reference = command + measured
+    blocks = [twice_reference[start:start + 20] for start in range(0, 1999, 20)]
+    assert max(np.ptp(block, axis=0).max() for block in blocks) < 1e-9
+    # The command moves with the measurement noise within a reference's hold.
+    assert min(np.std(command[start:start + 20], axis=0).min()
+               for start in range(20, 1980, 20)) > 1e-3
+
+
 def test_the_recording_refuses_bad_options(tmp_path, capsys):
     script = record_robot()
     with pytest.raises(SystemExit):
@@ -65,6 +100,9 @@ def test_the_recording_refuses_bad_options(tmp_path, capsys):
     with pytest.raises(SystemExit):
         script.main([str(tmp_path / 'bag'), '--rate', '0'])
     assert '--rate: expected a positive number, got 0.0' in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        script.main([str(tmp_path / 'bag'), '--gain', '-1'])
+    assert '--gain: expected a finite number >= 0, got -1.0' in capsys.readouterr().err
 
 
 def test_identify_finds_the_accelerometer_feedthrough(robot_bag, tmp_path, capsys):
