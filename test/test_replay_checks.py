@@ -44,6 +44,15 @@ A = [-10.0, 0.0, 0.0, -10.0]
 B = [303.0, -24.2, 303.0, 24.2]
 
 
+#: Each wheel a source of its own, both on ``/joint_states``.
+WHEEL_SOURCES = {'left': {'topic': '/joint_states', 'type': 'joint_state',
+                          'fields': ['velocity.wheel_left_joint'],
+                          'outputs': ['wheel_left_joint'], 'measurement_noise': [0.01]},
+                 'right': {'topic': '/joint_states', 'type': 'joint_state',
+                           'fields': ['velocity.wheel_right_joint'],
+                           'outputs': ['wheel_right_joint'], 'measurement_noise': [0.01]}}
+
+
 def drive_parameters(path, u_type='twist', sources=None, **observer):
     """Write a differential drive's parameter file: wheel speeds, commanded (v, w)."""
     section = {
@@ -130,13 +139,8 @@ def test_replay_and_tune_kalman_take_a_twist_input(tmp_path, capsys):
 
 def test_two_sources_on_one_topic_are_both_read(tmp_path):
     write_drive_bag(tmp_path / 'bag', samples=100)
-    sources = {'left': {'topic': '/joint_states', 'type': 'joint_state',
-                        'fields': ['velocity.wheel_left_joint'], 'outputs': ['wheel_left_joint'],
-                        'measurement_noise': [0.01]},
-               'right': {'topic': '/joint_states', 'type': 'joint_state',
-                         'fields': ['velocity.wheel_right_joint'],
-                         'outputs': ['wheel_right_joint'], 'measurement_noise': [0.01]}}
-    params = drive_parameters(tmp_path / 'two.yaml', sources=sources, time_varying=True)
+    params = drive_parameters(tmp_path / 'two.yaml', sources=WHEEL_SOURCES,
+                              time_varying=True)
     result = replay_bag(tmp_path / 'bag', params, u_topic='/cmd_vel')
     # Each message is read by both: 200 measurements, one estimate per stamp at least.
     assert result.counters['measurements'] == 200
@@ -358,13 +362,8 @@ def test_a_report_of_measurement_sources_takes_their_partial_innovations(tmp_pat
     # in that row, and the report's autocorrelation refused them after all the work
     # ("innovations: expected finite values", exit 2; seen on a TurtleBot3 bag).
     write_drive_bag(tmp_path / 'bag', samples=200)
-    sources = {'left': {'topic': '/joint_states', 'type': 'joint_state',
-                        'fields': ['velocity.wheel_left_joint'], 'outputs': ['wheel_left_joint'],
-                        'measurement_noise': [0.01]},
-               'right': {'topic': '/joint_states', 'type': 'joint_state',
-                         'fields': ['velocity.wheel_right_joint'],
-                         'outputs': ['wheel_right_joint'], 'measurement_noise': [0.01]}}
-    params = drive_parameters(tmp_path / 'two.yaml', sources=sources, time_varying=True)
+    params = drive_parameters(tmp_path / 'two.yaml', sources=WHEEL_SOURCES,
+                              time_varying=True)
     assert replay_main([str(tmp_path / 'bag'), str(params), '--u-topic', '/cmd_vel',
                         '--report', str(tmp_path / 'report')]) == 0, capsys.readouterr().err
     assert (tmp_path / 'report' / 'replay.html').exists()
