@@ -15,6 +15,8 @@
 """Bags: CDR codec, record and replay round trips, robot-style layouts and bad bags."""
 
 import doctest
+import importlib
+import pkgutil
 import re
 import subprocess
 import zlib
@@ -32,8 +34,8 @@ from observer_ros.bags.replay_outputs import write_replay
 from observer_ros.bags.storage import (
     _mcap_files, BagError, read_topic, read_topics, TopicRequest, TopicToWrite, write_bag)
 from observer_ros.config import load_parameter_file, validate_parameters
-import observer_ros.ros.cdr
-from observer_ros.ros.cdr import decode, DecodeError, Encoder, MessageReader, MessageWriter
+import observer_ros.wire
+from observer_ros.wire import decode, DecodeError, Encoder, MessageReader, MessageWriter
 from ros_support import run_lockstep
 
 STORAGES = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}
@@ -110,8 +112,13 @@ def test_a_repeated_joint_name_is_refused_by_both_decoders():
 
 
 def test_the_codec_examples_run():
-    result = doctest.testmod(observer_ros.ros.cdr)
-    assert result.failed == 0 and result.attempted > 0
+    attempted = 0
+    modules = pkgutil.walk_packages(observer_ros.wire.__path__, 'observer_ros.wire.')
+    for module in [info.name for info in modules]:
+        result = doctest.testmod(importlib.import_module(module))
+        assert result.failed == 0, module
+        attempted += result.attempted
+    assert attempted > 0
 
 
 @pytest.mark.parametrize('storage', sorted(STORAGES))

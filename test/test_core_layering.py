@@ -18,11 +18,11 @@ The layers: each room imports only the rooms below it, and only ``ros`` and ``no
 ``observer_ros.core`` is a library (models, designs, estimators, the event engine);
 ``observer_ros.config`` (the parameter schema) and ``observer_ros.app`` (health logic,
 reports, plots) sit on it without ROS; ``ros``, ``nodes``, ``bags`` and ``tools`` on top.
-The wire codec (``observer_ros.ros.cdr``) belongs to the ROS layer but imports no rclpy, so
-the bag tools (``observer_ros.bags``: storage and replay, no codec of their own) run without
-ROS. The configuration checks the field paths of the measurement sources against the
-codec's catalog of message layouts (one rule for what a message type has): the codec is
-the one module of the ``ros`` room that the rooms below it may import.
+The wire codec (``observer_ros.wire``) sits at the bottom beside the core: it imports no
+rclpy and nothing else of ours, so the bag tools (``observer_ros.bags``: storage and replay,
+no codec of their own) run without ROS, and the configuration checks the field paths of the
+measurement sources against its catalog of message types without reaching up into
+``ros``.
 """
 
 import importlib
@@ -38,11 +38,7 @@ import observer_ros.bags
 import observer_ros.config
 from observer_ros.config.schema import ALL_NODES
 import observer_ros.core
-import observer_ros.ros.cdr
-
-#: The wire codec (and its package), which imports no ROS and nothing of ours: the one
-#: module of the ``ros`` room the configuration may import (the field paths of sources).
-WIRE_CODEC = ('observer_ros.ros', 'observer_ros.ros.cdr')
+import observer_ros.wire
 
 ROS = ('rclpy', 'std_msgs', 'sensor_msgs', 'rosgraph_msgs', 'diagnostic_msgs')
 
@@ -53,6 +49,10 @@ def submodules(package) -> list:
         return [package.__name__]
     return [info.name for info in pkgutil.walk_packages(package.__path__,
                                                         package.__name__ + '.')]
+
+
+#: The wire codec's modules, which import no ROS and nothing of ours.
+WIRE_CODEC = tuple(submodules(observer_ros.wire)) + ('observer_ros.wire',)
 
 
 def imported_by(package) -> tuple:
@@ -84,20 +84,20 @@ def test_the_parameter_schema_imports_no_ros():
 
 
 def test_the_wire_codec_imports_no_ros():
-    _, loaded, ros = imported_by(observer_ros.ros.cdr)
+    modules, loaded, ros = imported_by(observer_ros.wire)
+    assert 'observer_ros.wire.catalog' in modules
     assert ros == []
-    assert loaded == ['observer_ros.ros', 'observer_ros.ros.cdr']
+    assert loaded == sorted(WIRE_CODEC)
 
 
 def test_the_bag_tools_import_no_ros_and_hold_no_wire_codec():
     modules, loaded, ros = imported_by(observer_ros.bags)
     assert 'observer_ros.bags.storage' in modules
     assert ros == []
-    assert [name for name in loaded if name.startswith('observer_ros.ros')] == [
-        'observer_ros.ros', 'observer_ros.ros.cdr']
+    assert [name for name in loaded if name.startswith('observer_ros.ros')] == []
     # Nothing of the codec is defined under bags/: what they use of it is the codec's own.
-    codec = {name for name, value in vars(observer_ros.ros.cdr).items()
-             if getattr(value, '__module__', None) == observer_ros.ros.cdr.__name__}
+    codec = {name for name, value in vars(observer_ros.wire).items()
+             if getattr(value, '__module__', '').startswith('observer_ros.wire.')}
     for name in modules:
         module = importlib.import_module(name)
         defined = {key for key, value in vars(module).items()
@@ -105,7 +105,7 @@ def test_the_bag_tools_import_no_ros_and_hold_no_wire_codec():
                    and value.__module__ == name}
         assert not defined & codec, (name, sorted(defined & codec))
         for key in set(vars(module)) & codec:
-            assert getattr(module, key) is getattr(observer_ros.ros.cdr, key), (name, key)
+            assert getattr(module, key) is getattr(observer_ros.wire, key), (name, key)
 
 
 def test_the_application_layer_imports_no_ros_and_nothing_above_it():

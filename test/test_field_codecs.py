@@ -30,10 +30,10 @@ import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 from scipy.spatial.transform import Rotation
 
-from observer_ros.ros.cdr import (
+from observer_ros.ros.messages import FieldCodec, MalformedMessage, message_class
+from observer_ros.wire import (
     decode_fields, field_names, FIELD_TYPES, FieldPathError, FieldReader, FIXED_LAYOUTS,
     parse_layout, quaternions)
-from observer_ros.ros.messages import FieldCodec, MalformedMessage, message_class
 
 SETTINGS = settings(max_examples=30, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])

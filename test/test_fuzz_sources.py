@@ -39,8 +39,8 @@ from std_msgs.msg import Float64MultiArray
 from observer_ros.config import validate_parameters
 from observer_ros.config.schema import FIELD_MESSAGE_TYPES
 from observer_ros.nodes.observer import ObserverNode
-from observer_ros.ros.cdr import FieldWriter, ORIGIN, STAMP
 from observer_ros.ros.messages import FieldCodec, MalformedMessage, message_class, stamp_to_ns
+from observer_ros.wire import FieldWriter, ORIGIN, STAMP
 from ros_support import executor_with, ros_context, spin_until
 
 CAMPAIGN = settings(max_examples=8, deadline=None, derandomize=True, database=None,

@@ -44,7 +44,7 @@ from observer_ros.core.evaluation import align
 from observer_ros.core.events import INPUT, MEASUREMENT
 from observer_ros.core.streaming import next_measurement_stamps, RecordedEvent
 from observer_ros.core.units import NANOSECONDS
-from observer_ros.ros.cdr import DecodeError, FieldReader, MessageReader, parse_layout
+from observer_ros.wire import DecodeError, FieldReader, MessageReader, parse_layout
 
 
 #: Inputs, evenly spread, whose stamps are compared with the measurements' time base.
@@ -512,7 +512,7 @@ def recorded_events(bag, system: Configuration, u_topic: str = 'u',
     Read the measurement sources' and the inputs' messages of a bag, in bag order.
 
     Each message is read as the observer node reads it: the fields of its source
-    (:class:`~observer_ros.ros.cdr.FieldReader`; without sources, ``y_topic`` as
+    (:class:`~observer_ros.wire.FieldReader`; without sources, ``y_topic`` as
     ``topics.y`` says), its header stamp where the type has one and it is not zero, else
     its log time (the node, under ``play_bag``, stamps it with ``/clock``, which is that
     log time); the log time is its arrival. Sources that share a topic each read every

@@ -31,7 +31,7 @@ import numpy as np
 from observer_ros.bags.storage import (
     absolute_topic, BagError, Playback, read_topics, topic_layout, TopicData, TopicRequest)
 from observer_ros.config.schema import FIELD_MESSAGE_TYPES
-from observer_ros.ros.cdr import (
+from observer_ros.wire import (
     DecodeError, field_names, FieldPathError, FieldReader, MESSAGE_TYPES)
 
 #: Sample intervals may differ from the median by this fraction (identification and ALS

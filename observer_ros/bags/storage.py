@@ -35,7 +35,7 @@ from typing import Iterator, Optional, Sequence, Tuple
 import numpy as np
 
 from observer_ros.bags.mcap import read_mcap_topics
-from observer_ros.ros.cdr import decode, DecodeError, Encoder, MESSAGE_TYPES, parse_layout
+from observer_ros.wire import decode, DecodeError, Encoder, MESSAGE_TYPES, parse_layout
 
 STORAGES = ('mcap', 'sqlite3')
 

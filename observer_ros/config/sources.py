@@ -24,7 +24,7 @@ stream is made (:meth:`~observer_ros.config.observer.ObserverSetup.make_stream`)
 :func:`~observer_ros.config.validate_parameters` does once at start-up.
 
 The field paths are checked against the wire codec's catalog of message layouts
-(:class:`~observer_ros.ros.cdr.FieldReader`, which imports nothing but the standard
+(:class:`~observer_ros.wire.FieldReader`, which imports nothing but the standard
 library and numpy), so a wrong path names the path, the type and the fields it has.
 """
 
@@ -43,7 +43,7 @@ from observer_ros.core.flat_matrices import covariance_from_flat
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.sources import MeasurementSource
 from observer_ros.core.units import NANOSECONDS
-from observer_ros.ros.cdr import FieldPathError, FieldReader
+from observer_ros.wire import FieldPathError, FieldReader
 
 
 @dataclass(frozen=True)

@@ -15,8 +15,8 @@
 """
 ROS 2 wiring: messages, schema parameters, QoS, executors, node main, health, lifecycle.
 
-One module per subject: :mod:`~.cdr` (the wire codec, without rclpy, shared with the bag tools),
-:mod:`~.messages` (vectors to and from messages),
+One module per subject: :mod:`~.messages` (vectors to and from messages, with the wire codec
+:mod:`observer_ros.wire` that the bag tools share),
 :mod:`~.parameters` (the schema parameters declared with their types), :mod:`~.qos`,
 :mod:`~.clock` (the ``/clock`` guard), :mod:`~.executors`, :mod:`~.run` (every node's
 ``main``), :mod:`~.diagnostics`, :mod:`~.lifecycle` (managed nodes) and :mod:`~.recorder`.

@@ -22,12 +22,12 @@ Float64MultiArray`` carries the bare vector in ``data`` and no stamp: the receiv
 on arrival (ros2_control forward command controllers take this type).
 
 Nodes subscribe and publish serialized messages (``raw=True``): the codec reads and writes
-the CDR bytes directly (:mod:`observer_ros.ros.cdr`, the same code as the bag tools), which
+the CDR bytes directly (:mod:`observer_ros.wire`, the same code as the bag tools), which
 skips building Python message objects on the hot path. Message objects are accepted too.
 
 :class:`FieldCodec` reads the messages robots publish by field path (``sensor_msgs/Imu``
 ``angular_velocity.z``, ``nav_msgs/Odometry`` ``twist.twist.linear.x``, a pose's
-``pose.orientation.yaw``...; see :class:`~observer_ros.ros.cdr.FieldReader`), with the
+``pose.orientation.yaw``...; see :class:`~observer_ros.wire.FieldReader`), with the
 same rules: a malformed message raises :class:`MalformedMessage`, never gives NaN.
 """
 
@@ -44,7 +44,7 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from observer_ros.config import Configuration
 from observer_ros.config.schema import FIELD_MESSAGE_TYPES, topic_names
 from observer_ros.core.units import NANOSECONDS
-from observer_ros.ros.cdr import (
+from observer_ros.wire import (
     ANGLES, DecodeError, FieldReader, FieldWriter, FLOAT64_MULTI_ARRAY, HEADER,
     joint_order, JOINT_STATE, JOINT_STATE_FIELDS, MessageReader, MessageWriter, ORIGIN,
     parse_layout, quaternion_angle, STAMP)
@@ -262,13 +262,13 @@ class FieldCodec(WireDecoding):
     topic : str
         Topic or source name, used in error messages.
     msgtype : str
-        A type of :data:`observer_ros.ros.cdr.FIELD_TYPES`.
+        A type of :data:`observer_ros.wire.FIELD_TYPES`.
     fields : sequence of str
-        Field paths, in vector order (see :class:`~observer_ros.ros.cdr.FieldReader`).
+        Field paths, in vector order (see :class:`~observer_ros.wire.FieldReader`).
 
     Raises
     ------
-    observer_ros.ros.cdr.FieldPathError
+    observer_ros.wire.FieldPathError
         A type not read by field path or a path it does not have, naming the path, the type
         and the fields it has.
 
@@ -353,7 +353,7 @@ class FieldCodec(WireDecoding):
 
         Raises
         ------
-        observer_ros.ros.cdr.FieldPathError
+        observer_ros.wire.FieldPathError
             A type that is not of fixed layout (JointState, Float64MultiArray: see
             :class:`VectorCodec`) or a derived field.
         ValueError

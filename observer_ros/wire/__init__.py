@@ -1,0 +1,43 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The wire codec: CDR bytes of the messages robots publish to and from numpy, without ROS.
+
+The nodes read and write their topics with it (:mod:`observer_ros.ros.messages`), the bag
+tools their recorded messages (:mod:`observer_ros.bags.storage`), the configuration checks
+field paths against it; it imports no rclpy and nothing else of this package, so it sits
+at the bottom of the tree beside :mod:`observer_ros.core`. One module per job:
+:mod:`~.layouts` (the bytes: header, stamps, parsed layouts), :mod:`~.catalog` (the
+message types and their field paths), :mod:`~.vectors` (JointState and Float64MultiArray
+vectors), :mod:`~.fields` (any type by field path) and :mod:`~.quaternions` (derived
+angles).
+"""
+
+from observer_ros.wire.catalog import (
+    field_names, FIELD_TYPES, FIXED_LAYOUTS, FLOAT64_MULTI_ARRAY, full_type_name, JOINT_STATE,
+    JOINT_STATE_FIELDS, MESSAGE_TYPES, quaternions)
+from observer_ros.wire.fields import decode_fields, FieldReader, FieldWriter
+from observer_ros.wire.layouts import (
+    DecodeError, FieldPathError, FixedLayout, HEADER, joint_order, Layout, ORIGIN, STAMP)
+from observer_ros.wire.quaternions import ANGLES, quaternion_angle
+from observer_ros.wire.vectors import (
+    decode, Encoder, MessageReader, MessageWriter, parse_layout)
+
+__all__ = ['ANGLES', 'DecodeError', 'Encoder', 'FIELD_TYPES', 'FIXED_LAYOUTS',
+           'FLOAT64_MULTI_ARRAY', 'FieldPathError', 'FieldReader', 'FieldWriter', 'FixedLayout',
+           'HEADER', 'JOINT_STATE', 'JOINT_STATE_FIELDS', 'Layout', 'MESSAGE_TYPES',
+           'MessageReader', 'MessageWriter', 'ORIGIN', 'STAMP', 'decode', 'decode_fields',
+           'field_names', 'full_type_name', 'joint_order', 'parse_layout', 'quaternion_angle',
+           'quaternions']
