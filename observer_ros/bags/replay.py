@@ -44,7 +44,7 @@ from observer_ros.core.evaluation import align
 from observer_ros.core.events import INPUT, MEASUREMENT
 from observer_ros.core.streaming import next_measurement_stamps, RecordedEvent
 from observer_ros.core.units import NANOSECONDS
-from observer_ros.wire import DecodeError, FieldReader, MessageReader, parse_layout
+from observer_ros.wire import DecodeError, FieldReader, find, parse_layout, topic_reader
 
 
 #: Inputs, evenly spread, whose stamps are compared with the measurements' time base.
@@ -385,10 +385,8 @@ def load_system(parameters: Union[str, os.PathLike, Configuration]) -> Configura
 def _input_reader(system: Configuration):
     """Return the reader of ``u``: by ``topics.u.fields``, else its vector of type and field."""
     settings = system.topics['u']
-    if settings.fields:
-        return FieldReader(FIELD_MESSAGE_TYPES[settings.type], settings.fields)
-    names = topic_names(system.model, 'u')
-    return MessageReader(settings.type, settings.field, names)
+    return topic_reader(settings.type, settings.fields, settings.field,
+                        topic_names(system.model, 'u'))
 
 
 def _vector_parameter(system: Configuration, key: str) -> str:
@@ -397,7 +395,8 @@ def _vector_parameter(system: Configuration, key: str) -> str:
     if key == 'u' and settings.fields:
         return 'topics.u.fields'
     names = 'model.output_names' if key == 'y' else 'model.input_names'
-    if settings.type == 'joint_state':
+    entry = find(settings.type)
+    if entry.vector and entry.layout.named:
         return f'topics.{key}.field {settings.field!r} of the joints {names}'
     return f'{names} (one entry of data each)'
 
@@ -420,7 +419,7 @@ def _readings(system: Configuration, y_topic: str, u_topic: str) -> dict:
         settings = system.topics['y']
         readings[absolute_topic(y_topic)] = [_Reading(
             MEASUREMENT, FIELD_MESSAGE_TYPES[settings.type],
-            MessageReader(settings.type, settings.field, topic_names(system.model, 'y')),
+            topic_reader(settings.type, (), settings.field, topic_names(system.model, 'y')),
             _vector_parameter(system, 'y'))]
     else:
         for settings, msgtype in zip(sources.settings, sources.msgtypes):
@@ -442,17 +441,16 @@ def _readings(system: Configuration, y_topic: str, u_topic: str) -> dict:
 
 def describe_message(raw: bytes, msgtype: str) -> str:
     """Say what a serialized message holds, for the error of a field it does not have."""
-    kind = {FIELD_MESSAGE_TYPES['joint_state']: 'joint_state',
-            FIELD_MESSAGE_TYPES['float64_multi_array']: 'float64_multi_array'}.get(msgtype)
-    if kind is None:
+    entry = find(msgtype)
+    if entry is None or not entry.vector:
         return f'a {msgtype}'
     try:
-        layout = parse_layout(raw, kind)
+        layout = parse_layout(raw, msgtype)
     except DecodeError as e:
         return f'a {msgtype} that cannot be parsed ({e})'
-    if kind == 'float64_multi_array':
-        return f'data of {layout.arrays["data"][1]} values'
-    counts = ', '.join(f'{field} {layout.arrays[field][1]}' for field in JOINT_STATE_FIELDS)
+    if not entry.layout.named:
+        return f'{entry.fields[0]} of {layout.arrays[entry.fields[0]][1]} values'
+    counts = ', '.join(f'{field} {layout.arrays[field][1]}' for field in entry.fields)
     return f'the joints {list(layout.names)} (values: {counts})'
 
 

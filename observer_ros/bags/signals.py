@@ -18,7 +18,7 @@ Signals read from bags by topic and field: the one reader of ``identify`` and ``
 A :class:`SignalSpec` names a topic and what to read of it, as the command lines write it:
 ``TOPIC[:FIELD[:JOINT,...]]`` for a JointState (or Float64MultiArray) vector, or
 ``TOPIC:PATH[,PATH...]`` for any type the observer reads by field path (its measurement
-sources and ``topics.u.fields``: :data:`~observer_ros.config.schema.FIELD_MESSAGE_TYPES`).
+sources and ``topics.u.fields``: :data:`~observer_ros.wire.TYPE_NAMES`).
 :func:`read_signals` reads several of them from one bag: header stamps where the type has
 them, else log times.
 """
@@ -30,9 +30,8 @@ import numpy as np
 
 from observer_ros.bags.storage import (
     absolute_topic, BagError, Playback, read_topics, topic_layout, TopicData, TopicRequest)
-from observer_ros.config.schema import FIELD_MESSAGE_TYPES
 from observer_ros.wire import (
-    DecodeError, field_names, FieldPathError, FieldReader, MESSAGE_TYPES)
+    DecodeError, field_names, FieldPathError, FieldReader, find, TYPE_NAMES)
 
 #: Sample intervals may differ from the median by this fraction (identification and ALS
 #: take one sample period; more needs resampling).
@@ -72,15 +71,14 @@ class SignalSpec:
             msgtype = playback.topics[absolute_topic(self.topic)][0]
         finally:
             playback.close()
-        if msgtype in MESSAGE_TYPES.values():
+        entry = find(msgtype)
+        if entry is not None and entry.vector:
             field = self.field or 'position'
             found = topic_layout(bag, self.topic, field)
             return TopicRequest(found.topic, found.kind, field, self.joints or found.names)
-        kinds = {full: kind for kind, full in FIELD_MESSAGE_TYPES.items()}
-        kind = kinds.get(msgtype)
-        if kind is None:
+        if entry is None:
             raise BagError(f'{bag}: topic {self.topic} holds {msgtype}; expected one of '
-                           f'{", ".join(sorted(kinds))}')
+                           f'{", ".join(sorted(TYPE_NAMES.values()))}')
         if not self.field or self.joints:
             raise BagError(f'{bag}: topic {self.topic} holds {msgtype}: name its field paths, '
                            f'TOPIC:PATH[,PATH...]; it has {", ".join(field_names(msgtype))}')
@@ -89,7 +87,7 @@ class SignalSpec:
             FieldReader(msgtype, fields)
         except FieldPathError as e:
             raise BagError(f'{bag}: topic {self.topic}: {e}') from e
-        return FieldRequest(absolute_topic(self.topic), kind, msgtype, fields)
+        return FieldRequest(absolute_topic(self.topic), entry.name, msgtype, fields)
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,8 @@ from typing import Iterator, Optional, Sequence, Tuple
 import numpy as np
 
 from observer_ros.bags.mcap import read_mcap_topics
-from observer_ros.wire import decode, DecodeError, Encoder, MESSAGE_TYPES, parse_layout
+from observer_ros.wire import (
+    decode, DecodeError, Encoder, full_type_name, message_types, parse_layout, vector_layout)
 
 STORAGES = ('mcap', 'sqlite3')
 
@@ -325,7 +326,8 @@ def read_topic(path, topic: str, kind: str, field: str, names: Sequence[str]) ->
         The bag directory (or its storage file).
     topic : str
         Topic name (relative names are taken from the root, as recorded).
-    kind : {'joint_state', 'float64_multi_array'}
+    kind : str
+        A vector type of the wire catalog (``joint_state``, ``float64_multi_array``).
     field : str
         JointState field with the values.
     names : sequence of str
@@ -362,7 +364,7 @@ def read_topics(path, requests: Sequence[TopicRequest]) -> list:
                 raise BagError(f'{path}: no topic {request.topic}; the bag has '
                                f'{_listing(reader)}')
             types = {message_type(c.msgtype) for c in connections}
-            expected = MESSAGE_TYPES[request.kind]
+            expected = full_type_name(request.kind)
             if types != {expected}:
                 raise BagError(f'{path}: topic {connections[0].topic} holds '
                                f'{", ".join(sorted(types))}, expected {expected} (set '
@@ -406,7 +408,7 @@ def topic_layout(path, topic: str, field: str = 'position') -> TopicRequest:
 
     """
     wanted = absolute_topic(topic)
-    kinds = {value: key for key, value in MESSAGE_TYPES.items()}
+    kinds = {entry.msgtype: entry.name for entry in message_types() if entry.vector}
     reader = _reader(path)
     try:
         connections = [c for c in reader.connections if absolute_topic(c.topic) == wanted]
@@ -431,12 +433,13 @@ def topic_layout(path, topic: str, field: str = 'position') -> TopicRequest:
         layout = parse_layout(first[2], kind)
     except DecodeError as e:
         raise BagError(f'{path}: topic {wanted}: first message: {e}') from e
-    if kind == 'joint_state':
+    shape = vector_layout(kind)
+    if shape.named:
         if field not in layout.arrays or layout.arrays[field][1] != len(layout.names):
             raise BagError(f'{path}: topic {wanted}: the first message has no {field} per '
                            f'joint ({list(layout.names)})')
         return TopicRequest(wanted, kind, field, tuple(layout.names))
-    count = layout.arrays['data'][1]
+    count = layout.arrays[shape.array(field)][1]
     base = wanted.strip('/').replace('/', '_')
     return TopicRequest(wanted, kind, field, tuple(f'{base}{i + 1}' for i in range(count)))
 

@@ -31,6 +31,7 @@ from observer_ros.core.arguments import (
 from observer_ros.core.arguments import seconds as _core_seconds
 from observer_ros.core.observers import observer_arguments, observer_type_names, observer_types
 from observer_ros.core.placement import METHODS
+from observer_ros.wire import JOINT_STATE_FIELDS, message_types, TYPE_NAMES
 
 #: The nodes of the package, by the name each declares its parameters under.
 PLANT, OBSERVER, FEEDBACK = 'plant_simulator', 'observer', 'state_feedback'
@@ -78,28 +79,18 @@ VALUE_LIMIT = 1e9
 #: Default limit of the covariance topics (their entries are squares of the states').
 COVARIANCE_LIMIT = 1e18
 
-MESSAGE_TYPES = ('joint_state', 'float64_multi_array')
-JOINT_STATE_FIELDS = ('position', 'velocity', 'effort')
+#: The vector types of ``topics.<topic>.type``: those the catalog reads as a whole vector.
+MESSAGE_TYPES = tuple(entry.name for entry in message_types() if entry.vector)
 
 #: The message types read by field path (measurement sources, ``topics.u.fields``), by the
-#: short name a parameter gives: ``imu`` is ``sensor_msgs/msg/Imu``.
-FIELD_MESSAGE_TYPES = {
-    'joint_state': 'sensor_msgs/msg/JointState',
-    'float64_multi_array': 'std_msgs/msg/Float64MultiArray',
-    'float64': 'std_msgs/msg/Float64',
-    'imu': 'sensor_msgs/msg/Imu',
-    'odometry': 'nav_msgs/msg/Odometry',
-    'pose_stamped': 'geometry_msgs/msg/PoseStamped',
-    'twist_stamped': 'geometry_msgs/msg/TwistStamped',
-    'wrench_stamped': 'geometry_msgs/msg/WrenchStamped',
-    'point_stamped': 'geometry_msgs/msg/PointStamped',
-    'vector3_stamped': 'geometry_msgs/msg/Vector3Stamped',
-    'twist': 'geometry_msgs/msg/Twist',
-}
+#: short name a parameter gives: ``imu`` is ``sensor_msgs/msg/Imu``. The wire catalog's own
+#: view (:data:`observer_ros.wire.TYPE_NAMES`): a type registered there is one here.
+FIELD_MESSAGE_TYPES = TYPE_NAMES
 
-#: Message types of the inputs ``u``: the vector types, and ``geometry_msgs/Twist``
-#: (``/cmd_vel``) read by ``topics.u.fields``.
-INPUT_MESSAGE_TYPES = MESSAGE_TYPES + ('twist',)
+#: Message types of the inputs ``u``: the vector types, and those the catalog says carry
+#: commands (``geometry_msgs/Twist`` on ``/cmd_vel``) read by ``topics.u.fields``.
+INPUT_MESSAGE_TYPES = tuple(entry.name for entry in message_types()
+                            if entry.vector or entry.commands)
 
 #: Vector topics: name, what the entries are named after, and the nodes that use it.
 TOPIC_ROLES = (

@@ -47,6 +47,7 @@ from observer_ros.config.schema import (
     OBSERVER_ARGUMENTS, PARAMETER_SPECS, PARAMETERS, ROS_PARAMETERS, source_parameter,
     SOURCE_SETTINGS, source_specs, topic_parameter, TOPIC_ROLES, TOPIC_SETTINGS)
 from observer_ros.core.errors import ConfigError, DesignError
+from observer_ros.wire import find
 
 #: Field metadata: the parameter a field is bound to, or the section a field holds.
 PARAMETER, SECTION = 'parameter', 'section'
@@ -470,8 +471,9 @@ class TopicSettings:
 
     @property
     def stamped(self) -> bool:
-        """Whether the messages carry a header stamp (a JointState does)."""
-        return self.type == 'joint_state'
+        """Whether the messages carry a header stamp (a JointState does): the catalog says."""
+        entry = find(self.type)
+        return entry is not None and entry.stamped
 
 
 class SettingsByName(Mapping):

@@ -23,9 +23,10 @@ always. Whether the observer type can update with each source alone is asked whe
 stream is made (:meth:`~observer_ros.config.observer.ObserverSetup.make_stream`), which
 :func:`~observer_ros.config.validate_parameters` does once at start-up.
 
-The field paths are checked against the wire codec's catalog of message layouts
-(:class:`~observer_ros.wire.FieldReader`, which imports nothing but the standard
-library and numpy), so a wrong path names the path, the type and the fields it has.
+The field paths are checked against the wire codec's catalog of message types
+(:mod:`observer_ros.wire`, which imports nothing but the standard library and numpy, and
+nothing above the configuration), so a wrong path names the path, the type and the fields
+it has.
 """
 
 from dataclasses import dataclass
@@ -43,7 +44,7 @@ from observer_ros.core.flat_matrices import covariance_from_flat
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.sources import MeasurementSource
 from observer_ros.core.units import NANOSECONDS
-from observer_ros.wire import FieldPathError, FieldReader
+from observer_ros.wire import FieldPathError, FieldReader, find
 
 
 @dataclass(frozen=True)
@@ -198,8 +199,8 @@ def check_input_fields(sections: Sections, model: StateSpaceModel) -> None:
     settings = sections.topics['u']
     parameter = 'topics.u.fields'
     if not settings.fields:
-        if settings.type in FIELD_MESSAGE_TYPES and settings.type not in (
-                'joint_state', 'float64_multi_array'):
+        entry = find(settings.type)
+        if entry is not None and not entry.vector:  # read by field path alone
             raise ConfigError(parameter, f'expected the {model.n_inputs} fields of '
                               f'topics.u.type {settings.type} that hold the inputs '
                               f'{list(model.input_names)} (for example linear.x, angular.z), '

@@ -40,7 +40,6 @@ line and exit status 2.
 import argparse
 from collections import Counter
 from dataclasses import dataclass, field
-import importlib
 import sys
 import time
 from typing import Optional, Sequence, Union
@@ -54,11 +53,12 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 from rosgraph_msgs.msg import Clock
 
-from observer_ros.bags.storage import absolute_topic, BagError, message_type, Playback
+from observer_ros.bags.storage import absolute_topic, BagError, Playback
 from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.messages import stamp_to_ns
 from observer_ros.ros.qos import volatile_qos
 from observer_ros.signals import StopSignals
+from observer_ros.wire import message_class as installed_class, MessageClassError
 
 
 #: Seconds between discovery matching and the first message.
@@ -87,10 +87,9 @@ def message_class(msgtype: str, topic: str):
         The type is not installed, naming the topic.
 
     """
-    package, _, name = message_type(msgtype).rpartition('/')
     try:
-        return getattr(importlib.import_module(package.replace('/', '.')), name)
-    except (ImportError, AttributeError, TypeError, ValueError) as e:
+        return installed_class(msgtype)  # the wire catalog's one lookup
+    except MessageClassError as e:
         raise BagError(f'topic {topic}: message type {msgtype} is not installed here; '
                        f'leave it out with --exclude {topic}') from e
 

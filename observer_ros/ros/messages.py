@@ -31,7 +31,6 @@ skips building Python message objects on the hot path. Message objects are accep
 same rules: a malformed message raises :class:`MalformedMessage`, never gives NaN.
 """
 
-import importlib
 import math
 import struct
 from typing import Optional, Sequence
@@ -39,17 +38,15 @@ from typing import Optional, Sequence
 import numpy as np
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+from std_msgs.msg import MultiArrayDimension
 
 from observer_ros.config import Configuration
 from observer_ros.config.schema import FIELD_MESSAGE_TYPES, topic_names
 from observer_ros.core.units import NANOSECONDS
 from observer_ros.wire import (
-    ANGLES, DecodeError, FieldReader, FieldWriter, FLOAT64_MULTI_ARRAY, HEADER,
-    joint_order, JOINT_STATE, JOINT_STATE_FIELDS, MessageReader, MessageWriter, ORIGIN,
-    parse_layout, quaternion_angle, STAMP)
-
-MESSAGE_CLASSES = {'joint_state': JointState, 'float64_multi_array': Float64MultiArray}
+    ANGLES, by_field_path, DecodeError, FieldReader, FieldWriter, full_type_name, HEADER,
+    joint_order, JOINT_STATE, JOINT_STATE_FIELDS, lookup, message_class, MessageReader,
+    MessageWriter, ORIGIN, parse_layout, quaternion_angle, STAMP, vector_layout)
 
 
 class MalformedMessage(ValueError):
@@ -131,7 +128,8 @@ class VectorCodec(WireDecoding):
     ----------
     topic : str
         Topic key (``'y'``, ``'u'`` ...), used in error messages.
-    kind : {'joint_state', 'float64_multi_array'}
+    kind : str
+        A vector type of the wire catalog (``joint_state``, ``float64_multi_array``).
     field : {'position', 'velocity', 'effort'}
         JointState field holding the values.
     names : sequence of str
@@ -150,8 +148,9 @@ class VectorCodec(WireDecoding):
         self.names = list(names)
         self.shape = shape
         self.size = len(self.names)
-        self.message_class = MESSAGE_CLASSES[kind]
-        self.stamped = kind == 'joint_state'
+        self._layout = vector_layout(kind)
+        self.message_class = message_class(full_type_name(kind))
+        self.stamped = self._layout.stamped
         self._order_cache: dict = {}
         self._reader = MessageReader(kind, field, self.names)
         self._writer = MessageWriter(serialize_message(self.message(0, [0.0] * self.size)),
@@ -183,15 +182,15 @@ class VectorCodec(WireDecoding):
     def message(self, stamp_ns: int, vector) -> object:
         """Build a message object holding ``vector`` (stamped when the type has a header)."""
         values = [float(value) for value in vector]
-        if self.kind == 'float64_multi_array':
-            message = Float64MultiArray(data=values)
+        if not self._layout.named:
+            message = self.message_class(**{self._layout.arrays[0]: values})
             if self.shape is not None:
                 rows, columns = self.shape
                 message.layout.dim = [
                     MultiArrayDimension(label='rows', size=rows, stride=rows * columns),
                     MultiArrayDimension(label='columns', size=columns, stride=columns)]
             return message
-        message = JointState(name=self.names)
+        message = self.message_class(name=self.names)
         ns_to_stamp(message.header.stamp, stamp_ns)
         setattr(message, self.field, values)
         return message
@@ -220,8 +219,8 @@ class VectorCodec(WireDecoding):
             if self.stamped and (seconds < 0 or nanoseconds >= NANOSECONDS):
                 self._check_stamp(seconds, nanoseconds)
             stamp = seconds * NANOSECONDS + nanoseconds or None
-        elif self.kind == 'float64_multi_array':
-            values = [float(value) for value in message.data]
+        elif not self._layout.named:
+            values = [float(value) for value in getattr(message, self._layout.arrays[0])]
             if len(values) != self.size:
                 raise MalformedMessage(
                     f'{self.topic}: expected {self.size} values in data, got {len(values)}')
@@ -245,12 +244,6 @@ class VectorCodec(WireDecoding):
         problem = stamp_problem(seconds, nanoseconds)
         if problem:
             raise MalformedMessage(f'{self.topic}: {problem}')
-
-
-def message_class(msgtype: str):
-    """Return the Python class of a message type (``sensor_msgs/msg/Imu``)."""
-    package, _, name = msgtype.split('/')
-    return getattr(importlib.import_module(f'{package}.msg'), name)
 
 
 class FieldCodec(WireDecoding):
@@ -287,6 +280,7 @@ class FieldCodec(WireDecoding):
         self.topic = topic
         self._reader = FieldReader(msgtype, fields)
         self.msgtype = self._reader.msgtype
+        self._entry = lookup(self.msgtype)
         self.fields = list(fields)
         self.size = len(self.fields)
         self.stamped = self._reader.stamped
@@ -328,15 +322,17 @@ class FieldCodec(WireDecoding):
         return message.header.stamp.sec, message.header.stamp.nanosec, values
 
     def _object_field(self, message, path: str):
-        if self.msgtype == JOINT_STATE:
+        layout = self._entry.layout
+        if self._entry.vector and layout.named:
             field, _, joint = path.partition('.')
             given = getattr(message, field)
             if len(given) != len(message.name):
                 raise DecodeError(f'{len(message.name)} names but {len(given)} {field} '
                                   f'values')
             return given[joint_order(message.name, [joint])[0]]
-        if self.msgtype == FLOAT64_MULTI_ARRAY:
-            return message.data[int(path[5:-1])]
+        if self._entry.vector:
+            array, _, index = path[:-1].partition('[')
+            return getattr(message, array)[int(index)]
         *parents, leaf = path.split('.')
         for name in parents:
             message = getattr(message, name)
@@ -376,7 +372,7 @@ def topic_codec(system: Configuration, topic: str):
     :class:`FieldCodec` of ``topics.u.type``; any other topic a :class:`VectorCodec`.
     """
     settings = system.topics[topic]
-    if settings.fields:
+    if by_field_path(settings.type, settings.fields):
         return FieldCodec(topic, FIELD_MESSAGE_TYPES[settings.type], settings.fields)
     return VectorCodec.for_topic(system, topic)
 
@@ -422,7 +418,7 @@ class JointStatesEncoder:
         template = JointState(name=self.names, **{
             field: [0.0] * len(indices) for field, indices in self.fields.items()})
         raw = serialize_message(template)
-        layout = parse_layout(raw, 'joint_state')
+        layout = parse_layout(raw, JOINT_STATE)
         self._buffer = bytearray(len(raw))
         self._buffer[:ORIGIN] = HEADER
         for start, end in layout.fixed:

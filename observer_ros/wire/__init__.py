@@ -26,18 +26,24 @@ angles).
 """
 
 from observer_ros.wire.catalog import (
-    field_names, FIELD_TYPES, FIXED_LAYOUTS, FLOAT64_MULTI_ARRAY, full_type_name, JOINT_STATE,
-    JOINT_STATE_FIELDS, MESSAGE_TYPES, quaternions)
-from observer_ros.wire.fields import decode_fields, FieldReader, FieldWriter
+    field_names, FIELD_TYPES, find, FIXED_LAYOUTS, FLOAT64_MULTI_ARRAY, full_type_name,
+    JOINT_STATE, JOINT_STATE_FIELDS, lookup, message_class, MESSAGE_TYPES, message_types,
+    MessageClassError, MessageType, quaternions, register, TYPE_NAMES, unregister,
+    vector_layout)
+from observer_ros.wire.fields import (
+    by_field_path, decode_fields, FieldReader, FieldWriter, topic_reader)
 from observer_ros.wire.layouts import (
-    DecodeError, FieldPathError, FixedLayout, HEADER, joint_order, Layout, ORIGIN, STAMP)
+    DecodeError, FieldPathError, FixedLayout, HEADER, joint_order, JointStateLayout, Layout,
+    MultiArrayLayout, ORIGIN, STAMP, VectorLayout)
 from observer_ros.wire.quaternions import ANGLES, quaternion_angle
 from observer_ros.wire.vectors import (
     decode, Encoder, MessageReader, MessageWriter, parse_layout)
 
 __all__ = ['ANGLES', 'DecodeError', 'Encoder', 'FIELD_TYPES', 'FIXED_LAYOUTS',
            'FLOAT64_MULTI_ARRAY', 'FieldPathError', 'FieldReader', 'FieldWriter', 'FixedLayout',
-           'HEADER', 'JOINT_STATE', 'JOINT_STATE_FIELDS', 'Layout', 'MESSAGE_TYPES',
-           'MessageReader', 'MessageWriter', 'ORIGIN', 'STAMP', 'decode', 'decode_fields',
-           'field_names', 'full_type_name', 'joint_order', 'parse_layout', 'quaternion_angle',
-           'quaternions']
+           'HEADER', 'JOINT_STATE', 'JOINT_STATE_FIELDS', 'JointStateLayout', 'Layout',
+           'MESSAGE_TYPES', 'MessageClassError', 'MessageReader', 'MessageType', 'MessageWriter',
+           'MultiArrayLayout', 'ORIGIN', 'STAMP', 'TYPE_NAMES', 'VectorLayout', 'by_field_path',
+           'decode', 'decode_fields', 'field_names', 'find', 'full_type_name', 'joint_order',
+           'lookup', 'message_class', 'message_types', 'parse_layout', 'quaternion_angle',
+           'quaternions', 'register', 'topic_reader', 'unregister', 'vector_layout']

@@ -12,60 +12,184 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The message types the wire codec knows: their names, layouts and field paths."""
+"""
+The one table of message types: each type the package reads or writes is one entry here.
 
-from typing import Sequence
+A :class:`MessageType` says everything the rest of the package asks about a type: the
+short name a parameter gives (``imu``), the ROS type (``sensor_msgs/msg/Imu``), its layout
+(a :class:`~observer_ros.wire.layouts.FixedLayout` of doubles at fixed places, read by
+field path, or a :class:`~observer_ros.wire.layouts.VectorLayout` whose vector a vector
+reader takes whole), its header stamp, its field paths, whether it may carry the inputs,
+and its Python class (imported only when asked, where ROS's message packages exist). The
+parameter schema, the codecs of the nodes, the bag tools and the player ask this table;
+none of them names a type. Adding a type is one :func:`register` call (one entry of
+:data:`BUILT_IN`), as ``test_wire_catalog.py`` shows with a type made in the test.
+"""
 
-from observer_ros.wire.layouts import FieldPathError, FixedLayout
+from collections.abc import Mapping
+from dataclasses import dataclass
+import importlib
+from typing import Sequence, Union
+
+from observer_ros.wire.layouts import (
+    FieldPathError, FixedLayout, JOINT_STATE_FIELDS, JointStateLayout, MultiArrayLayout,
+    VectorLayout)
 from observer_ros.wire.quaternions import ANGLES
-
 
 JOINT_STATE = 'sensor_msgs/msg/JointState'
 FLOAT64_MULTI_ARRAY = 'std_msgs/msg/Float64MultiArray'
-MESSAGE_TYPES = {'joint_state': JOINT_STATE, 'float64_multi_array': FLOAT64_MULTI_ARRAY}
-JOINT_STATE_FIELDS = ('position', 'velocity', 'effort')
 
 
-def _leaves(prefix: str, names: Sequence[str]) -> tuple:
+def leaves(prefix: str, names: Sequence[str]) -> tuple:
+    """Return ``prefix.name`` of each name (the names alone without a prefix)."""
     return tuple(f'{prefix}.{name}' if prefix else name for name in names)
 
 
-def _array(prefix: str, count: int) -> tuple:
+def indexed(prefix: str, count: int) -> tuple:
+    """Return the paths of a fixed-size array: ``prefix[0]`` ... ``prefix[count - 1]``."""
     return tuple(f'{prefix}[{k}]' for k in range(count))
 
 
-_XYZ = ('x', 'y', 'z')
-_POSE = _leaves('position', _XYZ) + _leaves('orientation', _XYZ + ('w',))
-_TWIST = _leaves('linear', _XYZ) + _leaves('angular', _XYZ)
-
-
-def _under(prefix: str, paths: tuple) -> tuple:
+def under(prefix: str, paths: tuple) -> tuple:
+    """Return ``paths`` inside the field ``prefix``."""
     return tuple(f'{prefix}.{path}' for path in paths)
 
 
-#: The fixed-layout types, by their full names.
-FIXED_LAYOUTS = {
-    'std_msgs/msg/Float64': FixedLayout(False, 0, ('data',)),
-    'geometry_msgs/msg/Twist': FixedLayout(False, 0, _TWIST),
-    'geometry_msgs/msg/TwistStamped': FixedLayout(True, 1, _under('twist', _TWIST)),
-    'geometry_msgs/msg/WrenchStamped': FixedLayout(
-        True, 1, _under('wrench', _leaves('force', _XYZ) + _leaves('torque', _XYZ))),
-    'geometry_msgs/msg/PointStamped': FixedLayout(True, 1, _leaves('point', _XYZ)),
-    'geometry_msgs/msg/Vector3Stamped': FixedLayout(True, 1, _leaves('vector', _XYZ)),
-    'geometry_msgs/msg/PoseStamped': FixedLayout(True, 1, _under('pose', _POSE)),
-    'sensor_msgs/msg/Imu': FixedLayout(
-        True, 1, _leaves('orientation', _XYZ + ('w',)) + _array('orientation_covariance', 9)
-        + _leaves('angular_velocity', _XYZ) + _array('angular_velocity_covariance', 9)
-        + _leaves('linear_acceleration', _XYZ)
-        + _array('linear_acceleration_covariance', 9)),
-    'nav_msgs/msg/Odometry': FixedLayout(
-        True, 2, _under('pose.pose', _POSE) + _array('pose.covariance', 36)
-        + _under('twist.twist', _TWIST) + _array('twist.covariance', 36)),
-}
+XYZ = ('x', 'y', 'z')
+#: The doubles of a ``geometry_msgs/Pose`` and a ``geometry_msgs/Twist``, in wire order.
+POSE = leaves('position', XYZ) + leaves('orientation', XYZ + ('w',))
+TWIST = leaves('linear', XYZ) + leaves('angular', XYZ)
 
-#: Every type a :class:`FieldReader` reads, by full name (the short names of the vector
-#: topics, ``joint_state`` and ``float64_multi_array``, are accepted too).
-FIELD_TYPES = (JOINT_STATE, FLOAT64_MULTI_ARRAY) + tuple(FIXED_LAYOUTS)
+
+class MessageClassError(LookupError):
+    """A message type whose Python class is not installed here."""
+
+
+@dataclass(frozen=True)
+class MessageType:
+    """
+    One message type: its names, its layout and what it can do.
+
+    Attributes
+    ----------
+    name : str
+        The short name parameters give (``sources.<name>.type``, ``topics.<topic>.type``).
+    msgtype : str
+        The ROS type, ``pkg/msg/Name``.
+    layout : FixedLayout or VectorLayout
+        Where its values sit: read by field path (fixed), or as a whole vector.
+    commands : bool
+        Whether it may carry the inputs (``topics.u.type``) read by ``topics.u.fields``;
+        a vector type always may.
+
+    """
+
+    name: str
+    msgtype: str
+    layout: Union[FixedLayout, VectorLayout]
+    commands: bool = False
+
+    @property
+    def stamped(self) -> bool:
+        """Whether its messages start with a header stamp."""
+        return self.layout.stamped
+
+    @property
+    def vector(self) -> bool:
+        """Whether a vector reader takes it whole (``topics.<topic>.type``, no field paths)."""
+        return isinstance(self.layout, VectorLayout)
+
+    @property
+    def fields(self) -> tuple:
+        """Its arrays (a vector type: the default first) or its doubles' paths, in order."""
+        return self.layout.arrays if self.vector else self.layout.doubles
+
+    def message_class(self) -> type:
+        """Return its Python class (imported now); MessageClassError when not installed."""
+        return message_class(self.msgtype)
+
+
+#: The built-in types, in the order parameters list them.
+BUILT_IN = (
+    MessageType('joint_state', JOINT_STATE, JointStateLayout()),
+    MessageType('float64_multi_array', FLOAT64_MULTI_ARRAY, MultiArrayLayout()),
+    MessageType('float64', 'std_msgs/msg/Float64', FixedLayout(False, 0, ('data',))),
+    MessageType('imu', 'sensor_msgs/msg/Imu', FixedLayout(
+        True, 1, leaves('orientation', XYZ + ('w',)) + indexed('orientation_covariance', 9)
+        + leaves('angular_velocity', XYZ) + indexed('angular_velocity_covariance', 9)
+        + leaves('linear_acceleration', XYZ)
+        + indexed('linear_acceleration_covariance', 9))),
+    MessageType('odometry', 'nav_msgs/msg/Odometry', FixedLayout(
+        True, 2, under('pose.pose', POSE) + indexed('pose.covariance', 36)
+        + under('twist.twist', TWIST) + indexed('twist.covariance', 36))),
+    MessageType('pose_stamped', 'geometry_msgs/msg/PoseStamped',
+                FixedLayout(True, 1, under('pose', POSE))),
+    MessageType('twist_stamped', 'geometry_msgs/msg/TwistStamped',
+                FixedLayout(True, 1, under('twist', TWIST))),
+    MessageType('wrench_stamped', 'geometry_msgs/msg/WrenchStamped', FixedLayout(
+        True, 1, under('wrench', leaves('force', XYZ) + leaves('torque', XYZ)))),
+    MessageType('point_stamped', 'geometry_msgs/msg/PointStamped',
+                FixedLayout(True, 1, leaves('point', XYZ))),
+    MessageType('vector3_stamped', 'geometry_msgs/msg/Vector3Stamped',
+                FixedLayout(True, 1, leaves('vector', XYZ))),
+    MessageType('twist', 'geometry_msgs/msg/Twist', FixedLayout(False, 0, TWIST),
+                commands=True),
+)
+
+_BY_NAME: dict = {}
+_BY_TYPE: dict = {}
+
+
+def register(entry: MessageType) -> MessageType:
+    """
+    Add a message type to the table; every reader, writer, schema and tool then knows it.
+
+    Raises
+    ------
+    ValueError
+        Its short name or ROS type is in the table already.
+
+    """
+    if entry.name in _BY_NAME or entry.msgtype in _BY_TYPE:
+        raise ValueError(f'message type {entry.name!r} ({entry.msgtype}): its name or type '
+                         f'is registered already')
+    _BY_NAME[entry.name] = _BY_TYPE[entry.msgtype] = entry
+    return entry
+
+
+def unregister(name: str) -> None:
+    """Remove the type of short name ``name`` (one that :func:`register` added)."""
+    entry = _BY_NAME.pop(name)
+    del _BY_TYPE[entry.msgtype]
+
+
+for _entry in BUILT_IN:
+    register(_entry)
+
+
+def message_types() -> tuple:
+    """Return every registered :class:`MessageType`, in the order of registration."""
+    return tuple(_BY_NAME.values())
+
+
+class _TypeNames(Mapping):
+    """``{short name: ROS type}`` of the registered types, as the table holds them now."""
+
+    def __getitem__(self, name: str) -> str:
+        return _BY_NAME[name].msgtype
+
+    def __iter__(self):
+        return iter(_BY_NAME)
+
+    def __len__(self) -> int:
+        return len(_BY_NAME)
+
+    def __repr__(self) -> str:
+        return repr(dict(self))
+
+
+#: ``{short name: ROS type}`` of every registered type (kept up to date by :func:`register`).
+TYPE_NAMES = _TypeNames()
 
 
 def full_type_name(msgtype: str) -> str:
@@ -78,19 +202,78 @@ def full_type_name(msgtype: str) -> str:
     ('sensor_msgs/msg/Imu', 'sensor_msgs/msg/JointState')
 
     """
-    if msgtype in MESSAGE_TYPES:
-        return MESSAGE_TYPES[msgtype]
+    if msgtype in _BY_NAME:
+        return _BY_NAME[msgtype].msgtype
     parts = msgtype.split('/')
     if len(parts) == 2:
         return f'{parts[0]}/msg/{parts[1]}'
     return msgtype
 
 
+def find(msgtype: str):
+    """Return the entry of a short name or ROS type (``pkg/msg/Name``, ``pkg/Name``), or None."""
+    return _BY_TYPE.get(full_type_name(msgtype))
+
+
+def lookup(msgtype: str) -> MessageType:
+    """
+    Return the entry of a short name or ROS type.
+
+    Raises
+    ------
+    FieldPathError
+        A type not in the table, listing the ones it has.
+
+    """
+    entry = find(msgtype)
+    if entry is None:
+        raise FieldPathError(f'message type {msgtype!r} is not read by field path; expected '
+                             f'one of {list(_BY_TYPE)}')
+    return entry
+
+
+def vector_layout(kind: str) -> VectorLayout:
+    """
+    Return the layout of a vector type (``joint_state``, ``std_msgs/msg/Float64MultiArray``).
+
+    Raises
+    ------
+    FieldPathError
+        Not a type of the table, or one that is not read as a whole vector.
+
+    """
+    entry = lookup(kind)
+    if not entry.vector:
+        raise FieldPathError(f'message type {entry.msgtype} is read by field path, not as a '
+                             f'vector; expected one of '
+                             f'{[item.name for item in message_types() if item.vector]}')
+    return entry.layout
+
+
+def message_class(msgtype: str) -> type:
+    """
+    Return the Python class of a ROS type (``pkg/msg/Name``, ``pkg/Name``, ``pkg/srv/Name_Event``).
+
+    Imported when asked, so the table itself needs no ROS.
+
+    Raises
+    ------
+    MessageClassError
+        The type's package or class is not installed here.
+
+    """
+    package, _, name = full_type_name(msgtype).rpartition('/')
+    try:
+        return getattr(importlib.import_module(package.replace('/', '.')), name)
+    except (ImportError, AttributeError, TypeError, ValueError) as e:
+        raise MessageClassError(f'message type {msgtype} is not installed here ({e})') from e
+
+
 def quaternions(layout: FixedLayout) -> tuple:
     """Return the prefixes of the quaternions of a layout (``x, y, z, w`` in a row)."""
     doubles = layout.doubles
     return tuple(path[:-2] for k, path in enumerate(doubles)
-                 if path.endswith('.x') and doubles[k + 1:k + 4] == _leaves(
+                 if path.endswith('.x') and doubles[k + 1:k + 4] == leaves(
                      path[:-2], ('y', 'z', 'w')))
 
 
@@ -122,19 +305,13 @@ def field_names(msgtype: str) -> list:
 'pose.orientation.yaw']
 
     """
-    msgtype = full_type_name(msgtype)
-    if msgtype == JOINT_STATE:
-        return [f'{field}.<joint name>' for field in JOINT_STATE_FIELDS]
-    if msgtype == FLOAT64_MULTI_ARRAY:
-        return ['data[<index>]']
-    layout = FIXED_LAYOUTS.get(msgtype)
-    if layout is None:
-        raise FieldPathError(f'message type {msgtype!r} is not read by field path; expected '
-                             f'one of {list(FIELD_TYPES)}')
+    layout = lookup(msgtype).layout
+    if isinstance(layout, VectorLayout):
+        return layout.paths()
     paths = list(layout.doubles)
     for prefix in quaternions(layout):
         at = paths.index(f'{prefix}.w') + 1
-        paths[at:at] = _leaves(prefix, ANGLES)
+        paths[at:at] = leaves(prefix, ANGLES)
     return _summary(paths)
 
 
@@ -142,3 +319,15 @@ def refuse(path: str, msgtype: str, reason: str = '') -> FieldPathError:
     """Return the error of a path ``msgtype`` does not have, listing the ones it has."""
     return FieldPathError(f'{path!r} is no field of {msgtype}{reason}; it has '
                           f'{", ".join(field_names(msgtype))}')
+
+
+# What the built-in types were known by before the table (kept for their users).
+MESSAGE_TYPES = {entry.name: entry.msgtype for entry in BUILT_IN if entry.vector}
+FIXED_LAYOUTS = {entry.msgtype: entry.layout for entry in BUILT_IN if not entry.vector}
+FIELD_TYPES = tuple(entry.msgtype for entry in BUILT_IN)
+
+__all__ = ['BUILT_IN', 'FIELD_TYPES', 'FIXED_LAYOUTS', 'FLOAT64_MULTI_ARRAY', 'JOINT_STATE',
+           'JOINT_STATE_FIELDS', 'MESSAGE_TYPES', 'MessageClassError', 'MessageType', 'POSE',
+           'TWIST', 'TYPE_NAMES', 'XYZ', 'field_names', 'find', 'full_type_name', 'indexed',
+           'leaves', 'lookup', 'message_class', 'message_types', 'quaternions', 'refuse',
+           'register', 'under', 'unregister', 'vector_layout']

@@ -30,8 +30,7 @@ from typing import Sequence
 import numpy as np
 
 from observer_ros.wire.catalog import (
-    field_names, FIXED_LAYOUTS, FLOAT64_MULTI_ARRAY, full_type_name, JOINT_STATE,
-    JOINT_STATE_FIELDS, quaternions, refuse)
+    find, full_type_name, lookup, message_types, quaternions, refuse)
 from observer_ros.wire.layouts import (
     DecodeError, FieldPathError, FixedLayout, HEADER, LENGTH, ORIGIN, STAMP, STAMP_LENGTH)
 from observer_ros.wire.quaternions import ANGLES, picker
@@ -109,8 +108,8 @@ class FieldReader:
     Parameters
     ----------
     msgtype : str
-        One of :data:`FIELD_TYPES` (``sensor_msgs/msg/Imu``; ``sensor_msgs/Imu`` and the short
-        names ``joint_state``, ``float64_multi_array`` are accepted).
+        A type of the catalog (:mod:`observer_ros.wire.catalog`): ``sensor_msgs/msg/Imu``;
+        ``sensor_msgs/Imu`` and the short names (``imu``, ``joint_state``) are accepted.
     fields : sequence of str
         Field paths, in the order of the vector read: ``angular_velocity.z``,
         ``twist.twist.linear.x``, ``pose.pose.orientation.yaw`` (the derived angle of a
@@ -150,27 +149,26 @@ it has linear.x, linear.y, linear.z, angular.x, angular.y, angular.z
         self.fields = list(fields)
         if not self.fields:
             raise FieldPathError(f'expected at least one field of {msgtype}, got none')
-        self.stamped = msgtype != FLOAT64_MULTI_ARRAY and (
-            msgtype == JOINT_STATE or FIXED_LAYOUTS.get(msgtype, FixedLayout(False, 0, ()))
-            .stamped)
-        if msgtype == JOINT_STATE:
-            self._readers = self._joint_readers()
-        elif msgtype == FLOAT64_MULTI_ARRAY:
-            indices = [self._index(path) for path in self.fields]
-            self._readers = [(MessageReader('float64_multi_array', 'data', [], indices), None)]
-        else:
-            layout = FIXED_LAYOUTS.get(msgtype)
-            if layout is None:
-                field_names(msgtype)  # raises, listing the types
+        entry = lookup(msgtype)  # raises, listing the types
+        self.stamped = entry.stamped
+        self._layout = layout = entry.layout
+        if not entry.vector:
             self._readers = [(_FixedReader(msgtype, layout, self.fields), None)]
+        elif layout.named:
+            self._readers = self._joint_readers()
+        else:
+            indices = [self._index(path) for path in self.fields]
+            self._readers = [(MessageReader(msgtype, layout.arrays[0], [], indices), None)]
         #: :meth:`read_parts` of a message known to be little-endian plain CDR.
         self.read_little_endian = (self._readers[0][0].read_parts if len(self._readers) == 1
                                    else self._read_several)
 
     def _index(self, path: str) -> int:
         """Return the index of ``data[<index>]`` (Float64MultiArray)."""
-        if path.startswith('data[') and path.endswith(']') and path[5:-1].isdigit():
-            return int(path[5:-1])
+        array = f'{self._layout.arrays[0]}['
+        index = path[len(array):-1]
+        if path.startswith(array) and path.endswith(']') and index.isdigit():
+            return int(index)
         raise refuse(path, self.msgtype)
 
     def _joint_readers(self) -> list:
@@ -178,10 +176,10 @@ it has linear.x, linear.y, linear.z, angular.x, angular.y, angular.z
         by_field: dict = {}
         for position, path in enumerate(self.fields):
             field, _, joint = path.partition('.')
-            if field not in JOINT_STATE_FIELDS or not joint:
+            if field not in self._layout.arrays or not joint:
                 raise refuse(path, self.msgtype, ' (expected <field>.<joint name>)')
             by_field.setdefault(field, []).append((position, joint))
-        return [(MessageReader('joint_state', field, [joint for _, joint in wanted]),
+        return [(MessageReader(self.msgtype, field, [joint for _, joint in wanted]),
                  None if len(by_field) == 1 else [position for position, _ in wanted])
                 for field, wanted in by_field.items()]
 
@@ -265,10 +263,12 @@ class FieldWriter:
 
     def __init__(self, msgtype: str, fields: Sequence[str]) -> None:
         msgtype = full_type_name(msgtype)
-        layout = FIXED_LAYOUTS.get(msgtype)
-        if layout is None:
+        entry = find(msgtype)
+        if entry is None or entry.vector:
+            fixed = [item.msgtype for item in message_types() if not item.vector]
             raise FieldPathError(f'message type {msgtype!r} is not written by field path; '
-                                 f'expected one of {list(FIXED_LAYOUTS)}')
+                                 f'expected one of {fixed}')
+        layout = entry.layout
         index = {path: k for k, path in enumerate(layout.doubles)}
         for path in fields:
             if path not in index:
@@ -295,3 +295,34 @@ class FieldWriter:
         for place, value in zip(self._places, values):
             pack(buffer, place, value)
         return bytes(buffer)
+
+
+def by_field_path(msgtype: str, fields: Sequence[str]) -> bool:
+    """
+    Say whether a topic is read by field path: the one choice between the two readers.
+
+    By field path (:class:`FieldReader`, the nodes' ``FieldCodec``) when field paths are
+    given or the type holds no whole vector; else as a vector (:class:`MessageReader`, the
+    nodes' ``VectorCodec``) of the type's ``topics.<topic>.field``.
+    """
+    return bool(fields) or not lookup(msgtype).vector
+
+
+def topic_reader(msgtype: str, fields: Sequence[str], field: str, names: Sequence[str]):
+    """
+    Return the reader of a topic: by ``fields`` (:func:`by_field_path`), else its vector.
+
+    Parameters
+    ----------
+    msgtype : str
+        A type of the catalog (short name or ROS type).
+    fields : sequence of str
+        Field paths (``topics.u.fields``, ``sources.<name>.fields``); empty for a vector.
+    field, names
+        The array and the entries' names of a vector (``topics.<topic>.field``, the
+        model's names).
+
+    """
+    if by_field_path(msgtype, fields):
+        return FieldReader(msgtype, fields)
+    return MessageReader(msgtype, field, names)

@@ -168,3 +168,90 @@ class FixedLayout:
     stamped: bool
     strings: int
     doubles: tuple
+
+
+#: The arrays of a ``sensor_msgs/JointState``, one value per joint each.
+JOINT_STATE_FIELDS = ('position', 'velocity', 'effort')
+
+
+class VectorLayout:
+    """
+    A message type that carries a whole vector in one of its arrays of doubles.
+
+    Read by a vector reader (:class:`~observer_ros.wire.vectors.MessageReader`, whole
+    bags with :func:`~observer_ros.wire.vectors.decode`): its layout is parsed once per
+    publisher, then each message is read with one ``struct`` call. ``stamped``: it has a
+    header stamp; ``arrays``: its arrays of doubles, the default first; ``named``: its
+    entries are named (joint names), else counted (``data[<index>]``).
+    """
+
+    stamped = False
+    arrays: tuple = ()
+    named = False
+
+    def walk(self, parser: Parser) -> tuple:
+        """Walk a message with ``parser``; return its names and ``{array: (offset, count)}``."""
+        raise NotImplementedError
+
+    def array(self, field: str) -> str:
+        """Return the array that holds the values of ``topics.<topic>.field`` ``field``."""
+        return field if self.named else self.arrays[0]
+
+    def paths(self) -> list:
+        """Return the field paths it offers, as :func:`~.catalog.field_names` lists them."""
+        raise NotImplementedError
+
+    def template(self, types: dict, msgtype: str, names: Sequence[str], field: str, zeros):
+        """Return a ``rosbags`` message of the type holding ``zeros`` in ``field``."""
+        raise NotImplementedError
+
+
+class JointStateLayout(VectorLayout):
+    """``sensor_msgs/JointState``: a header, joint names and one array per field."""
+
+    stamped = True
+    arrays = JOINT_STATE_FIELDS
+    named = True
+
+    def walk(self, parser: Parser) -> tuple:
+        """Walk a JointState; return its joint names and arrays."""
+        parser.offset += 8  # stamp
+        parser.string()  # frame_id
+        names = [parser.string() for _ in range(parser.count())]
+        return names, {field: parser.doubles() for field in JOINT_STATE_FIELDS}
+
+    def paths(self) -> list:
+        """Return ``<field>.<joint name>`` of each field."""
+        return [f'{field}.<joint name>' for field in JOINT_STATE_FIELDS]
+
+    def template(self, types: dict, msgtype: str, names: Sequence[str], field: str, zeros):
+        """Return a JointState of ``names`` with ``zeros`` in ``field``, the others empty."""
+        empty = zeros[:0]
+        header = types['std_msgs/msg/Header'](
+            stamp=types['builtin_interfaces/msg/Time'](sec=0, nanosec=0), frame_id='')
+        arrays = {name: (zeros if name == field else empty) for name in JOINT_STATE_FIELDS}
+        return types[msgtype](header=header, name=list(names), **arrays)
+
+
+class MultiArrayLayout(VectorLayout):
+    """``std_msgs/Float64MultiArray``: a layout (dimensions, offset) and ``data``; no stamp."""
+
+    arrays = ('data',)
+
+    def walk(self, parser: Parser) -> tuple:
+        """Walk a Float64MultiArray; return no names and its ``data``."""
+        for _ in range(parser.count()):  # layout.dim: label, size, stride
+            parser.string()
+            parser.count()
+            parser.count()
+        parser.count()  # data_offset
+        return [], {'data': parser.doubles()}
+
+    def paths(self) -> list:
+        """Return ``data[<index>]``."""
+        return ['data[<index>]']
+
+    def template(self, types: dict, msgtype: str, names: Sequence[str], field: str, zeros):
+        """Return a Float64MultiArray with ``zeros`` in ``data`` and an empty layout."""
+        layout = types['std_msgs/msg/MultiArrayLayout'](dim=[], data_offset=0)
+        return types[msgtype](layout=layout, data=zeros)

@@ -29,30 +29,24 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from observer_ros.wire.catalog import JOINT_STATE_FIELDS, MESSAGE_TYPES
+from observer_ros.wire.catalog import full_type_name, vector_layout
 from observer_ros.wire.layouts import (
     DecodeError, HEADER, joint_order, Layout, ORIGIN, Parser, STAMP)
 
 
 def parse_layout(raw, kind: str) -> Layout:
-    """Parse one serialized message's layout (``kind``: joint_state | float64_multi_array)."""
+    """
+    Parse one serialized message's layout.
+
+    ``kind``: a vector type of the catalog (``joint_state``, ``float64_multi_array``, or its
+    ROS type), whose :class:`~observer_ros.wire.layouts.VectorLayout` walks the message.
+    """
+    shape = vector_layout(kind)
     if bytes(raw[:2]) != HEADER[:2]:
         raise DecodeError('not little-endian plain CDR')
     parser = Parser(raw)
     try:
-        if kind == 'joint_state':
-            parser.offset += 8  # stamp
-            parser.string()  # frame_id
-            names = [parser.string() for _ in range(parser.count())]
-            arrays = {field: parser.doubles() for field in JOINT_STATE_FIELDS}
-        else:
-            for _ in range(parser.count()):  # layout.dim: label, size, stride
-                parser.string()
-                parser.count()
-                parser.count()
-            parser.count()  # data_offset
-            arrays = {'data': parser.doubles()}
-            names = []
+        names, arrays = shape.walk(parser)
     except (struct.error, UnicodeDecodeError) as e:
         raise DecodeError(f'truncated or corrupt message ({e})') from e
     if parser.offset > len(raw):
@@ -76,12 +70,12 @@ def _select(layout: Layout, kind: str, field: str, names: Sequence[str],
     ``indices`` (Float64MultiArray): the wanted entries of ``data`` (any length holding
     them), instead of every entry (``names`` then counts them).
     """
-    if kind == 'joint_state':
+    if vector_layout(kind).named:
         offset, count = layout.arrays[field]
         if count != len(layout.names):
             raise DecodeError(f'{len(layout.names)} names but {count} {field} values')
         return offset, count, joint_order(layout.names, names)
-    offset, count = layout.arrays['data']
+    offset, count = layout.arrays[vector_layout(kind).array(field)]
     if indices is not None:
         if count <= max(indices):
             raise DecodeError(f'expected at least {max(indices) + 1} values in data, got '
@@ -100,7 +94,8 @@ def decode(raws: Sequence[bytes], kind: str, field: str, names: Sequence[str]) -
     ----------
     raws : sequence of bytes
         Serialized messages (CDR with its 4-byte header), as stored in a bag.
-    kind : {'joint_state', 'float64_multi_array'}
+    kind : str
+        A vector type of the catalog (``joint_state``, ``float64_multi_array``).
     field : str
         JointState field holding the values.
     names : sequence of str
@@ -122,6 +117,7 @@ def decode(raws: Sequence[bytes], kind: str, field: str, names: Sequence[str]) -
     errors: dict = {}
     lengths = np.fromiter((len(raw) for raw in raws), dtype=np.int64, count=total)
     remaining = np.arange(total)
+    stamped = vector_layout(kind).stamped
     while remaining.size:
         first = int(remaining[0])
         try:
@@ -139,7 +135,7 @@ def decode(raws: Sequence[bytes], kind: str, field: str, names: Sequence[str]) -
         same = (block[:, mask] == template[mask]).all(axis=1)
         members = candidates[same]
         rows = block[same]
-        if kind == 'joint_state':
+        if stamped:
             seconds = rows[:, ORIGIN:ORIGIN + 4].copy().view('<i4').ravel().astype(np.int64)
             nanoseconds = rows[:, ORIGIN + 4:ORIGIN + 8].copy().view('<u4').ravel()
             stamps[members] = seconds * 1_000_000_000 + nanoseconds
@@ -186,6 +182,7 @@ class MessageReader:
     def __init__(self, kind: str, field: str, names: Sequence[str],
                  indices: Optional[Sequence[int]] = None) -> None:
         self.kind = kind
+        self.stamped = vector_layout(kind).stamped
         self.field = field
         self.names = list(names)
         self.indices = None if indices is None else list(indices)
@@ -214,7 +211,7 @@ class MessageReader:
         layout = parse_layout(raw, self.kind)
         offset, count, order = _select(layout, self.kind, self.field, self.names,
                                        self.indices)
-        stamp_end = ORIGIN + 8 if self.kind == 'joint_state' else ORIGIN
+        stamp_end = ORIGIN + 8 if self.stamped else ORIGIN
         stamp_start = min(ORIGIN, stamp_end)
         spans = ((0, stamp_start), (stamp_end, offset), (offset + 8 * count, layout.size))
         known = _Known(layout.size, tuple((start, bytes(raw[start:end]))
@@ -245,7 +242,7 @@ class MessageReader:
         """
         known = self._layout(raw)
         seconds = nanoseconds = 0
-        if self.kind == 'joint_state':
+        if self.stamped:
             seconds, nanoseconds = STAMP.unpack_from(raw, ORIGIN)
         values = known.values.unpack_from(raw, known.offset)
         order = known.order
@@ -259,8 +256,9 @@ class MessageWriter:
 
     def __init__(self, template: bytes, kind: str, field: str) -> None:
         layout = parse_layout(template, kind)
-        self.offset, count = layout.arrays[field if kind == 'joint_state' else 'data']
-        self.stamped = kind == 'joint_state'
+        shape = vector_layout(kind)
+        self.offset, count = layout.arrays[shape.array(field)]
+        self.stamped = shape.stamped
         self._values = struct.Struct(f'<{count}d')
         self._buffer = bytearray(len(template))  # padding zeroed, whatever the template had
         self._buffer[:ORIGIN] = HEADER
@@ -284,32 +282,23 @@ class Encoder:
                  typestore: Optional[object] = None) -> None:
         from rosbags.typesys import get_typestore, Stores
         self.kind = kind
-        self.msgtype = MESSAGE_TYPES[kind]
+        self.msgtype = full_type_name(kind)
+        shape = vector_layout(kind)
+        self.stamped = shape.stamped
         self.typestore = typestore or get_typestore(Stores.ROS2_JAZZY)
         self.width = len(names)
-        template = self._message(names, field)
+        template = shape.template(self.typestore.types, self.msgtype, names, field,
+                                  np.zeros(len(names)))
         raw = bytes(self.typestore.serialize_cdr(template, self.msgtype))
         layout = parse_layout(raw, kind)
-        self.offset, _ = layout.arrays[field if kind == 'joint_state' else 'data']
+        self.offset, _ = layout.arrays[shape.array(field)]
         self.template = np.frombuffer(raw, dtype=np.uint8)
-
-    def _message(self, names, field):
-        types = self.typestore.types
-        zeros = np.zeros(len(names))
-        if self.kind == 'float64_multi_array':
-            layout = types['std_msgs/msg/MultiArrayLayout'](dim=[], data_offset=0)
-            return types[self.msgtype](layout=layout, data=zeros)
-        empty = np.zeros(0)
-        header = types['std_msgs/msg/Header'](
-            stamp=types['builtin_interfaces/msg/Time'](sec=0, nanosec=0), frame_id='')
-        arrays = {name: (zeros if name == field else empty) for name in JOINT_STATE_FIELDS}
-        return types[self.msgtype](header=header, name=list(names), **arrays)
 
     def encode(self, stamps_ns, values) -> list:
         """Return one ``bytes`` per row of ``values`` ``(k, width)`` stamped ``stamps_ns``."""
         values = np.ascontiguousarray(values, dtype='<f8').reshape(-1, self.width)
         rows = np.tile(self.template, (values.shape[0], 1))
-        if self.kind == 'joint_state':
+        if self.stamped:
             stamps_ns = np.asarray(stamps_ns, dtype=np.int64)
             seconds, nanoseconds = np.divmod(stamps_ns, 1_000_000_000)
             rows[:, ORIGIN:ORIGIN + 4] = seconds.astype('<i4')[:, None].view(np.uint8)
