@@ -134,6 +134,12 @@ BUILT_IN = (
                 FixedLayout(True, 1, leaves('vector', XYZ))),
     MessageType('twist', 'geometry_msgs/msg/Twist', FixedLayout(False, 0, TWIST),
                 commands=True),
+    # A motion-capture or localization pose, and a velocity estimate, with covariances.
+    MessageType('pose_with_covariance_stamped', 'geometry_msgs/msg/PoseWithCovarianceStamped',
+                FixedLayout(True, 1, under('pose.pose', POSE) + indexed('pose.covariance', 36))),
+    MessageType('twist_with_covariance_stamped',
+                'geometry_msgs/msg/TwistWithCovarianceStamped', FixedLayout(
+                    True, 1, under('twist.twist', TWIST) + indexed('twist.covariance', 36))),
 )
 
 _BY_NAME: dict = {}
