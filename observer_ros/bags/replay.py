@@ -395,8 +395,7 @@ def _vector_parameter(system: Configuration, key: str) -> str:
     if key == 'u' and settings.fields:
         return 'topics.u.fields'
     names = 'model.output_names' if key == 'y' else 'model.input_names'
-    entry = find(settings.type)
-    if entry.vector and entry.layout.named:
+    if find(settings.type).named:
         return f'topics.{key}.field {settings.field!r} of the joints {names}'
     return f'{names} (one entry of data each)'
 

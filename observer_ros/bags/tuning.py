@@ -49,6 +49,7 @@ from observer_ros.core.tuning.als import (
 from observer_ros.core.tuning.innovations import (
     decay_samples, InnovationStatistics, nis_summary, NisSummary, Whiteness, whiteness)
 from observer_ros.core.units import NANOSECONDS
+from observer_ros.wire import lookup
 
 #: Default burn-in: samples until ``||(Ad - L C)^k||`` falls to this.
 BURN_IN_DECAY = 1e-12
@@ -238,7 +239,7 @@ def file_spec(system, key: str, topic: str) -> SignalSpec:
     settings = system.topics[key]
     if key == 'u' and settings.fields:
         return SignalSpec(topic, ','.join(settings.fields))
-    if settings.type == 'joint_state':
+    if lookup(settings.type).named:
         return SignalSpec(topic, settings.field, tuple(topic_names(system.model, key)))
     return SignalSpec(topic)
 

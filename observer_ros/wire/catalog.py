@@ -100,6 +100,11 @@ class MessageType:
         return isinstance(self.layout, VectorLayout)
 
     @property
+    def named(self) -> bool:
+        """Say whether it is a vector whose entries have joint names rather than indices."""
+        return self.vector and self.layout.named
+
+    @property
     def fields(self) -> tuple:
         """Its arrays (a vector type: the default first) or its doubles' paths, in order."""
         return self.layout.arrays if self.vector else self.layout.doubles
