@@ -322,8 +322,7 @@ class FieldCodec(WireDecoding):
         return message.header.stamp.sec, message.header.stamp.nanosec, values
 
     def _object_field(self, message, path: str):
-        layout = self._entry.layout
-        if self._entry.vector and layout.named:
+        if self._entry.named:
             field, _, joint = path.partition('.')
             given = getattr(message, field)
             if len(given) != len(message.name):

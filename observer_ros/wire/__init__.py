@@ -27,7 +27,7 @@ angles).
 
 from observer_ros.wire.catalog import (
     field_names, FIELD_TYPES, find, FIXED_LAYOUTS, FLOAT64_MULTI_ARRAY, full_type_name,
-    JOINT_STATE, JOINT_STATE_FIELDS, lookup, message_class, MESSAGE_TYPES, message_types,
+    JOINT_STATE, JOINT_STATE_FIELDS, lookup, message_class, message_types,
     MessageClassError, MessageType, quaternions, register, TYPE_NAMES, unregister,
     vector_layout)
 from observer_ros.wire.fields import (
@@ -42,7 +42,7 @@ from observer_ros.wire.vectors import (
 __all__ = ['ANGLES', 'DecodeError', 'Encoder', 'FIELD_TYPES', 'FIXED_LAYOUTS',
            'FLOAT64_MULTI_ARRAY', 'FieldPathError', 'FieldReader', 'FieldWriter', 'FixedLayout',
            'HEADER', 'JOINT_STATE', 'JOINT_STATE_FIELDS', 'JointStateLayout', 'Layout',
-           'MESSAGE_TYPES', 'MessageClassError', 'MessageReader', 'MessageType', 'MessageWriter',
+           'MessageClassError', 'MessageReader', 'MessageType', 'MessageWriter',
            'MultiArrayLayout', 'ORIGIN', 'STAMP', 'TYPE_NAMES', 'VectorLayout', 'by_field_path',
            'decode', 'decode_fields', 'field_names', 'find', 'full_type_name', 'joint_order',
            'lookup', 'message_class', 'message_types', 'parse_layout', 'quaternion_angle',

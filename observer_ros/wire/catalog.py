@@ -332,13 +332,12 @@ def refuse(path: str, msgtype: str, reason: str = '') -> FieldPathError:
                           f'{", ".join(field_names(msgtype))}')
 
 
-# What the built-in types were known by before the table (kept for their users).
-MESSAGE_TYPES = {entry.name: entry.msgtype for entry in BUILT_IN if entry.vector}
+#: The built-in types read by field path alone, and every built-in type (the ROS types).
 FIXED_LAYOUTS = {entry.msgtype: entry.layout for entry in BUILT_IN if not entry.vector}
 FIELD_TYPES = tuple(entry.msgtype for entry in BUILT_IN)
 
 __all__ = ['BUILT_IN', 'FIELD_TYPES', 'FIXED_LAYOUTS', 'FLOAT64_MULTI_ARRAY', 'JOINT_STATE',
-           'JOINT_STATE_FIELDS', 'MESSAGE_TYPES', 'MessageClassError', 'MessageType', 'POSE',
+           'JOINT_STATE_FIELDS', 'MessageClassError', 'MessageType', 'POSE',
            'TWIST', 'TYPE_NAMES', 'XYZ', 'field_names', 'find', 'full_type_name', 'indexed',
            'leaves', 'lookup', 'message_class', 'message_types', 'quaternions', 'refuse',
            'register', 'under', 'unregister', 'vector_layout']

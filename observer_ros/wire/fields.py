@@ -17,11 +17,13 @@ Fields by path: the messages robots publish, read and written by field path.
 
 The messages robots publish are read by field path (:class:`FieldReader`,
 :func:`decode_fields`; :class:`FieldWriter` writes commands): ``sensor_msgs/JointState`` by
-joint name and field, ``std_msgs/Float64MultiArray`` by index, and the fixed-layout types of
-:data:`FIXED_LAYOUTS` (``sensor_msgs/Imu``, ``nav_msgs/Odometry``, the stamped geometry
-messages, ``geometry_msgs/Twist``, ``std_msgs/Float64``), whose doubles sit at fixed places
-after the header's strings: one length read per string, then one ``struct`` call for the
-wanted doubles. A quaternion offers its ``roll``, ``pitch`` and ``yaw`` as derived fields.
+joint name and field, ``std_msgs/Float64MultiArray`` by index, and the types of fixed layout
+of the catalog (:mod:`observer_ros.wire.catalog`: ``sensor_msgs/Imu``,
+``nav_msgs/Odometry``, the stamped geometry messages, ``geometry_msgs/Twist``,
+``std_msgs/Float64``), whose doubles sit at fixed places after the header's strings: one
+length read per string, then one ``struct`` call for the wanted doubles. A quaternion
+offers its ``roll``, ``pitch`` and ``yaw`` as derived fields. :func:`by_field_path` is the
+one choice between a field reader and a vector reader.
 """
 
 import struct
