@@ -21,10 +21,11 @@ field paths against it; it imports no rclpy and nothing else of this package, so
 at the bottom of the tree beside :mod:`observer_ros.core`. One module per job:
 :mod:`~.layouts` (the bytes: header, stamps, parsed layouts), :mod:`~.catalog` (the
 message types and their field paths), :mod:`~.vectors` (JointState and Float64MultiArray
-vectors), :mod:`~.fields` (any type by field path) and :mod:`~.quaternions` (derived
+vectors), :mod:`~.fields` (any type by field path) and :mod:`~.angles` (derived
 angles).
 """
 
+from observer_ros.wire.angles import ANGLES, quaternion_angle
 from observer_ros.wire.catalog import (
     field_names, FIELD_TYPES, find, FIXED_LAYOUTS, FLOAT64_MULTI_ARRAY, full_type_name,
     JOINT_STATE, JOINT_STATE_FIELDS, lookup, message_class, message_types,
@@ -35,7 +36,6 @@ from observer_ros.wire.fields import (
 from observer_ros.wire.layouts import (
     DecodeError, FieldPathError, FixedLayout, HEADER, joint_order, JointStateLayout, Layout,
     MultiArrayLayout, ORIGIN, STAMP, VectorLayout)
-from observer_ros.wire.quaternions import ANGLES, quaternion_angle
 from observer_ros.wire.vectors import (
     decode, Encoder, MessageReader, MessageWriter, parse_layout)
 

@@ -31,10 +31,10 @@ from dataclasses import dataclass
 import importlib
 from typing import Sequence, Union
 
+from observer_ros.wire.angles import ANGLES
 from observer_ros.wire.layouts import (
     FieldPathError, FixedLayout, JOINT_STATE_FIELDS, JointStateLayout, MultiArrayLayout,
     VectorLayout)
-from observer_ros.wire.quaternions import ANGLES
 
 JOINT_STATE = 'sensor_msgs/msg/JointState'
 FLOAT64_MULTI_ARRAY = 'std_msgs/msg/Float64MultiArray'

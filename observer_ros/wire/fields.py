@@ -31,11 +31,11 @@ from typing import Sequence
 
 import numpy as np
 
+from observer_ros.wire.angles import ANGLES, picker
 from observer_ros.wire.catalog import (
     find, full_type_name, lookup, message_types, quaternions, refuse)
 from observer_ros.wire.layouts import (
     DecodeError, FieldPathError, FixedLayout, HEADER, LENGTH, ORIGIN, STAMP, STAMP_LENGTH)
-from observer_ros.wire.quaternions import ANGLES, picker
 from observer_ros.wire.vectors import MessageReader
 
 
