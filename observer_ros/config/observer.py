@@ -55,7 +55,7 @@ from observer_ros.core.observers import (
     disturbance_arguments, make_estimator, observer_type, ObserverType)
 from observer_ros.core.rules import ValueLimits
 from observer_ros.core.streaming import EventStream
-from observer_ros.core.units import NANOSECONDS
+from observer_ros.core.units import seconds_to_ns
 
 
 @dataclass(frozen=True)
@@ -237,10 +237,6 @@ def _check_interval_resolution(section: ObserverSection, model: StateSpaceModel)
                           f'period; expected 0, got {resolution}')
 
 
-def _ns(seconds: float) -> int:
-    return round(seconds * NANOSECONDS)
-
-
 @dataclass(frozen=True)
 class ObserverSetup:
     """
@@ -317,8 +313,9 @@ class ObserverSetup:
                              estimate=topics['x_hat'].limit,
                              innovation=topics['innovation'].limit)
         return cls(result.kind, result.arguments, result.design, result.initial_state,
-                   _ns(section.interval_resolution), _ns(section.max_gap),
-                   _ns(section.clock_tolerance), _ns(section.input_wait), section.publish_rate,
+                   seconds_to_ns(section.interval_resolution), seconds_to_ns(section.max_gap),
+                   seconds_to_ns(section.clock_tolerance), seconds_to_ns(section.input_wait),
+                   section.publish_rate,
                    limits, topics['u'].stamped, joint_states, result.binding,
                    result.design_source, result.sources, result.history_ns, result.angles,
                    section.unstamped_input)

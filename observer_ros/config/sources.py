@@ -42,7 +42,7 @@ from observer_ros.core.errors import ConfigError
 from observer_ros.core.flat_matrices import covariance_from_flat
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.sources import MeasurementSource
-from observer_ros.core.units import NANOSECONDS
+from observer_ros.core.units import seconds_to_ns
 from observer_ros.ros.cdr import FieldPathError, FieldReader
 
 
@@ -70,10 +70,6 @@ class SourcesSetup:
     measurement_noise: Optional[np.ndarray] = None
 
 
-def _ns(seconds: float) -> int:
-    return round(seconds * NANOSECONDS)
-
-
 def _source(settings: SourceSettings, model: StateSpaceModel) -> MeasurementSource:
     """Check one source's own settings; return its MeasurementSource."""
     msgtype = FIELD_MESSAGE_TYPES[settings.type]
@@ -92,8 +88,8 @@ def _source(settings: SourceSettings, model: StateSpaceModel) -> MeasurementSour
     carried = indices(outputs, settings.outputs, model.output_names, 'output')
     if len(set(carried)) != len(carried):
         raise ConfigError(outputs, f'an output is named twice in {list(settings.outputs)}')
-    return MeasurementSource(settings.name, carried, _ns(settings.latency),
-                             _ns(settings.timeout), settings.predict_only)
+    return MeasurementSource(settings.name, carried, seconds_to_ns(settings.latency),
+                             seconds_to_ns(settings.timeout), settings.predict_only)
 
 
 def _noise_blocks(sources: tuple, settings: tuple, model: StateSpaceModel) -> Optional[
@@ -181,7 +177,7 @@ def check_history(sections: Sections) -> int:
         raise ConfigError('observer.history', f'expected at most observer.max_gap '
                           f'({number_text(section.max_gap)} s; beyond it the estimate starts '
                           f'again), got {number_text(section.history)}')
-    return _ns(section.history)
+    return seconds_to_ns(section.history)
 
 
 def check_input_fields(sections: Sections, model: StateSpaceModel) -> None:

@@ -47,7 +47,7 @@ from observer_ros.core.errors import ConfigError, ObserverRosError
 from observer_ros.core.estimators.intervals import IntervalDesigns
 from observer_ros.core.placement import preload_methods
 from observer_ros.core.rules import within_limit
-from observer_ros.core.units import NANOSECONDS
+from observer_ros.core.units import NANOSECONDS, rate_to_period_ns
 from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import (
     JointStatesEncoder, MalformedMessage, source_codecs, topic_codec)
@@ -135,7 +135,7 @@ class ObserverWiring:
         estimator = self.stream.estimator
         if not isinstance(estimator, IntervalDesigns):
             return
-        period_ns = round(NANOSECONDS / system.sample_rate_hz)
+        period_ns = rate_to_period_ns(system.sample_rate_hz)
         try:
             estimator.intervals.peek(period_ns)
         except ObserverRosError as e:
