@@ -205,8 +205,8 @@ FULL_ORDER = {'observer.type': 'full_order', 'observer.poles': ['-3', '-4'],
     ({'sources.camera.outputs': []}, 'sources.camera.outputs: expected 1 outputs'),
     ({'observer.sources': ['wheels']}, "sources.camera.type: 'camera' is no measurement "
      "source: observer.sources names ['wheels']"),
-    ({'sources.camera.latency': 0.3}, 'sources.camera.latency: 0.3 s is longer than '
-     'observer.history'),
+    ({'sources.camera.latency': 0.3}, "observer.history: source 'camera' has a latency "
+     'of 0.3 s, longer than the history'),
     ({'sources.camera.timeout': 0.001}, 'sources.camera.timeout: expected 0 (never stale) or '
      'more than one sample period'),
     ({'sources.wheels.measurement_noise': []}, 'sources.wheels.measurement_noise: expected '

@@ -122,7 +122,10 @@ def measurement_sources(sections: Sections, model: StateSpaceModel) -> Optional[
         Naming the parameter: a wrong field path (with the type and the fields it has),
         outputs that are no outputs of the model, of the wrong count, in two sources or in
         none, a block of R of the wrong size or given for some sources only, a timeout not
-        above one sample period, a latency longer than ``observer.history``.
+        above one sample period. A latency longer than ``observer.history`` is refused
+        where the stream takes the sources
+        (:func:`~observer_ros.core.sources.check_sources`, the one place of that rule),
+        which :func:`~observer_ros.config.validate_parameters` builds once.
 
     """
     settings = tuple(sections.sources.values())
@@ -143,14 +146,8 @@ def measurement_sources(sections: Sections, model: StateSpaceModel) -> Optional[
     if missing:
         raise ConfigError('observer.sources', f'outputs {missing} belong to no source; '
                           f'expected every output of the model in one source')
-    history = sections.observer.history
     rate, rate_source = sample_rate(sections, model)
     for item in settings:
-        if item.latency > history:
-            raise ConfigError(item.parameter('latency'), f'{number_text(item.latency)} s is '
-                              f'longer than observer.history ({number_text(history)} s), '
-                              f'which takes the late samples in stamp order; expected at '
-                              f'most observer.history')
         if item.timeout and item.timeout * rate <= 1.0:
             raise ConfigError(item.parameter('timeout'), f'expected 0 (never stale) or more '
                               f'than one sample period ({number_text(1.0 / rate)} s at '

@@ -78,7 +78,7 @@ class ObserverWiring:
         self.vet_system(system)
         preload_methods()  # no placement method may import a module on a callback path
         setup = system.observer
-        self.stream = setup.make_stream()
+        self.stream = setup.take_stream()
         self._design_expected_interval(system)
         covariance = setup.kind.capabilities.covariance
         topics = ('y', 'u', 'x_hat', 'innovation') + (COVARIANCE_TOPICS if covariance else ())
