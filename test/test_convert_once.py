@@ -28,6 +28,7 @@ import pytest
 from conftest import CONFIG_DIR, REPOSITORY
 from observer_ros.config import load_parameter_file, ObserverSetup, validate_parameters
 import observer_ros.config.observer as config_observer
+import observer_ros.config.sources as config_sources
 from observer_ros.core import poles
 from observer_ros.core.errors import ConfigError
 import observer_ros.core.observers.full_order as full_order
@@ -161,3 +162,11 @@ def test_the_latency_within_the_history_rule_is_the_cores_for_one_source_too():
                                 node='observer').observer
     assert setup.sources.sources[0].latency_ns == 20_000_000
     assert setup.take_stream().engine.history_ns == 20_000_000
+
+
+def test_the_history_within_the_gap_rule_is_the_cores_alone():
+    with pytest.raises(ConfigError, match=r'^observer.history: expected 0 \.\.\. 1 s \(the gap '
+                       r'limit, beyond which the estimate starts again\), got 1.5 s$'):
+        validate_parameters({**MOTOR, 'observer.history': 1.5, 'observer.max_gap': 1.0},
+                            node='observer')
+    assert not hasattr(config_sources, 'check_history')

@@ -211,7 +211,7 @@ FULL_ORDER = {'observer.type': 'full_order', 'observer.poles': ['-3', '-4'],
      'more than one sample period'),
     ({'sources.wheels.measurement_noise': []}, 'sources.wheels.measurement_noise: expected '
      'the block of R of every source'),
-    ({'observer.history': 2.0}, 'observer.history: expected at most observer.max_gap'),
+    ({'observer.history': 2.0}, 'observer.history: expected 0 ... 1 s (the gap limit'),
     ({**FULL_ORDER}, "observer.sources: source 'wheels' (outputs ['wheel_v']) alone: (A, C) "
      'of these outputs is not observable: the modes 0 cannot be seen'),
     ({'observer.type': 'reduced_order', 'observer.process_noise': [], 'observer.poles': ['-5'],

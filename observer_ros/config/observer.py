@@ -43,7 +43,7 @@ import numpy as np
 from observer_ros.config.model import Augmentation
 from observer_ros.config.sections import (
     Binding, JointStatesSection, ModelSection, ObserverSection, Sections)
-from observer_ros.config.sources import check_history, measurement_sources, SourcesSetup
+from observer_ros.config.sources import measurement_sources, SourcesSetup
 from observer_ros.config.values import check_inside, indices
 from observer_ros.core.angles import Angles
 from observer_ros.core.design.common import ObserverDesign
@@ -136,7 +136,7 @@ def observer_design(sections: Sections, augmentation: Augmentation) -> Optional[
     binding = ModelSection.binding() | section.binding()
     with binding.charged(binding['type']):
         kind = observer_type(section.type)
-    history_ns = check_history(sections)
+    history_ns = seconds_to_ns(section.history, binding['history'])
     sources = measurement_sources(sections, model)
     given = _with_source_noise(section.arguments, sources, kind, binding)
     design_source = binding.get(kind.charged_argument(given)) or binding['type']

@@ -158,25 +158,6 @@ def measurement_sources(sections: Sections, model: StateSpaceModel) -> Optional[
                         _noise_blocks(sources, settings, model))
 
 
-def check_history(sections: Sections) -> int:
-    """
-    Return ``observer.history`` in nanoseconds, at most ``observer.max_gap``.
-
-    Raises
-    ------
-    ConfigError
-        ``observer.history`` longer than ``observer.max_gap`` (beyond which the estimate
-        starts again, so nothing older can be inserted).
-
-    """
-    section = sections.observer
-    if section.history > section.max_gap:
-        raise ConfigError('observer.history', f'expected at most observer.max_gap '
-                          f'({number_text(section.max_gap)} s; beyond it the estimate starts '
-                          f'again), got {number_text(section.history)}')
-    return seconds_to_ns(section.history)
-
-
 def check_input_fields(sections: Sections, model: StateSpaceModel) -> None:
     """
     Check ``topics.u.fields``: one valid field path of ``topics.u.type`` per input.
