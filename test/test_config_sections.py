@@ -75,7 +75,9 @@ def test_a_section_field_has_the_type_of_its_parameter():
 def test_the_sections_hold_the_checked_values_by_the_cores_names():
     sections = Sections.check({**MOTOR, 'observer.poles': [-8, -9], 'plant.samples': 7})
     assert sections.model.A == [0.0, 1.0, 0.0, -2.0]
-    assert sections.observer.arguments['poles'] == ['-8', '-9']  # numbers become strings
+    poles = sections.observer.arguments['poles']  # numbers become complex, not strings
+    assert poles.dtype == complex and poles.tolist() == [-8, -9]
+    assert sections.parameters['observer.poles'] == ['-8', '-9']  # a parameter file's form
     assert sections.plant.samples == 7
     assert sections.topics['u_cmd'].limit == 1e9
     assert sections.feedback.integral.poles == []

@@ -205,13 +205,13 @@ FULL_ORDER = {'observer.type': 'full_order', 'observer.poles': ['-3', '-4'],
     ({'sources.camera.outputs': []}, 'sources.camera.outputs: expected 1 outputs'),
     ({'observer.sources': ['wheels']}, "sources.camera.type: 'camera' is no measurement "
      "source: observer.sources names ['wheels']"),
-    ({'sources.camera.latency': 0.3}, 'sources.camera.latency: 0.3 s is longer than '
-     'observer.history'),
+    ({'sources.camera.latency': 0.3}, "observer.history: source 'camera' has a latency "
+     'of 0.3 s, longer than the history'),
     ({'sources.camera.timeout': 0.001}, 'sources.camera.timeout: expected 0 (never stale) or '
      'more than one sample period'),
     ({'sources.wheels.measurement_noise': []}, 'sources.wheels.measurement_noise: expected '
      'the block of R of every source'),
-    ({'observer.history': 2.0}, 'observer.history: expected at most observer.max_gap'),
+    ({'observer.history': 2.0}, 'observer.history: expected 0 ... 1 s (the gap limit'),
     ({**FULL_ORDER}, "observer.sources: source 'wheels' (outputs ['wheel_v']) alone: (A, C) "
      'of these outputs is not observable: the modes 0 cannot be seen'),
     ({'observer.type': 'reduced_order', 'observer.process_noise': [], 'observer.poles': ['-5'],

@@ -35,9 +35,10 @@ import yaml
 from observer_ros.bags.storage import TopicToWrite, write_bag
 from observer_ros.core.discretize import van_loan, zero_order_hold
 from observer_ros.core.observers.kalman import NAME as KALMAN
+from observer_ros.core.units import NANOSECONDS, seconds_to_ns
 
 #: Start of the simulated stamps (ns): a wall-clock-like time.
-START_NS = 1_700_000_000 * 10**9
+START_NS = 1_700_000_000 * NANOSECONDS
 
 
 @dataclass(frozen=True)
@@ -120,7 +121,7 @@ class NoisyPlant:
         u, x, y = self.simulate(samples, seed)
         u = u if inputs is None else inputs
         y = y if outputs is None else outputs
-        period_ns = round(self.period * 1e9)
+        period_ns = seconds_to_ns(self.period)
         stamps = start_ns + period_ns * np.arange(samples, dtype=np.int64)
         write_bag(path, [
             TopicToWrite('/u', 'joint_state', 'position', self.input_names, stamps,
@@ -187,7 +188,7 @@ def write_third_order(path, samples: int = THIRD_ORDER_SAMPLES, seed: int = 1, i
     y += rng.standard_normal(y.shape) * noise
     if nan_at is not None:
         y[nan_at] = np.nan
-    stamps = START_NS + round(THIRD_ORDER_PERIOD * 1e9) * np.arange(samples, dtype=np.int64)
+    stamps = START_NS + seconds_to_ns(THIRD_ORDER_PERIOD) * np.arange(samples, dtype=np.int64)
     write_bag(path, [TopicToWrite('/u', 'joint_state', 'position', ['force'], stamps,
                                   stamps - 1000, u),
                      TopicToWrite('/y', 'joint_state', 'position', ['position'], stamps,

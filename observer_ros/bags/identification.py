@@ -45,7 +45,7 @@ from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.rules import InputHistory
 from observer_ros.core.tuning.subspace import (
     fit_percent, identify_subspace, Record, SubspaceModel, to_continuous, validate)
-from observer_ros.core.units import NANOSECONDS
+from observer_ros.core.units import NANOSECONDS, rate_to_period_ns
 
 #: A step longer than this many sample periods splits a bag into records.
 GAP_PERIODS = 1.5
@@ -81,7 +81,7 @@ def resample_period(rate: Union[None, str, float], median_ns: int) -> Optional[i
         hertz = float('nan')
     if not np.isfinite(hertz) or hertz <= 0 or NANOSECONDS / hertz < 1:
         raise ConfigError('--resample', f'expected a rate in Hz (> 0) or {AUTO}, got {rate!r}')
-    return int(round(NANOSECONDS / hertz))
+    return rate_to_period_ns(hertz, '--resample')
 
 
 @dataclass(frozen=True)

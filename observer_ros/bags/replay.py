@@ -43,7 +43,7 @@ from observer_ros.core.estimates import replay_arrays
 from observer_ros.core.evaluation import align
 from observer_ros.core.events import INPUT, MEASUREMENT
 from observer_ros.core.streaming import next_measurement_stamps, RecordedEvent
-from observer_ros.core.units import NANOSECONDS
+from observer_ros.core.units import NANOSECONDS, seconds_to_ns
 from observer_ros.wire import DecodeError, FieldReader, find, parse_layout, topic_reader
 
 
@@ -315,7 +315,7 @@ def reference_rmse(result: 'ReplayResult', reference: StateReference,
     stamps, truth, estimate = align(data.stamps_ns, data.values[:, 0], result.stamps_ns,
                                     result.estimates[:, column])
     if len(stamps):
-        keep = stamps >= stamps[0] + int(settle_s * NANOSECONDS)
+        keep = stamps >= stamps[0] + seconds_to_ns(settle_s, 'settle_s')
         stamps, truth, estimate = stamps[keep], truth[keep], estimate[keep]
     if not len(stamps):
         raise BagError(f'{result.bag}: --reference: {reference.topic} and the estimates '

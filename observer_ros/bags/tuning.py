@@ -409,7 +409,8 @@ def common_period(runs: Sequence[BagRun], setup: KalmanSetup) -> int:
         raise BagError(f'{off[0].bag}: sampled every {off[0].period_ns / 1e6:g} ms, the other '
                        f'bags every {period / 1e6:g} ms; tune from bags of one rate')
     dt = setup.model.dt
-    if setup.model.is_discrete and abs(period - dt * NANOSECONDS) > PERIOD_TOLERANCE * dt * 1e9:
+    if setup.model.is_discrete and abs(period - dt * NANOSECONDS) > (
+            PERIOD_TOLERANCE * dt * NANOSECONDS):
         raise BagError(f'{runs[0].bag}: sampled every {period / 1e6:g} ms but model.dt is '
                        f'{dt:g} s; a discrete model needs bags at its own rate')
     return period

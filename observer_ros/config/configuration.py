@@ -29,8 +29,7 @@ from typing import Any, Mapping, Optional
 from observer_ros.config.feedback import feedback_settings, FeedbackSettings
 from observer_ros.config.loop import analyse_loop, LoopAnalysis
 from observer_ros.config.model import Augmentation
-from observer_ros.config.observer import (
-    joint_state_selection, observer_design, ObserverSetup)
+from observer_ros.config.observer import observer_design, ObserverSetup
 from observer_ros.config.plant import plant_settings, PlantSettings
 from observer_ros.config.schema import CONTROLLER, FEEDBACK, OBSERVER, PLANT
 from observer_ros.config.sections import DiagnosticsSection, Sections, TopicsSection
@@ -158,16 +157,12 @@ def validate_parameters(params: Mapping[str, Any], strict: bool = False,
     sections = Sections.check(params, strict)
     augmentation = Augmentation.read(sections.model)
     model = augmentation.model
-    designed = observer_design(sections, augmentation) if 'observer' in parts else None
+    observer = observer_design(sections, augmentation) if 'observer' in parts else None
     feedback = feedback_settings(sections, augmentation) if 'feedback' in parts else None
     plant = plant_settings(sections, augmentation) if 'plant' in parts else None
     check_sample_period(sections, model, params)
     check_input_fields(sections, model)
-    observer = None
-    if designed is not None:
-        observer = ObserverSetup.of(designed, sections, joint_state_selection(
-            sections.observer.joint_states, model))
-        if observer is not None and observer.keeps_history:
-            observer.make_stream()  # the type asked about each source, once, at start-up
+    if observer is not None and observer.checks_sources:
+        observer.check_stream()  # built once, at start-up: ObserverSetup.take_stream hands it on
     return Configuration(sections, augmentation, sample_rate(sections, model)[0], observer,
                          feedback, plant, analyse_loop(augmentation, observer, feedback))

@@ -35,7 +35,7 @@ designed once and cached, rounded to ``observer.interval_resolution``
 """
 
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field as dataclass_field
 from typing import Iterator, Optional
 
 import numpy as np
@@ -43,7 +43,7 @@ import numpy as np
 from observer_ros.config.model import Augmentation
 from observer_ros.config.sections import (
     Binding, JointStatesSection, ModelSection, ObserverSection, Sections)
-from observer_ros.config.sources import check_history, measurement_sources, SourcesSetup
+from observer_ros.config.sources import measurement_sources, SourcesSetup
 from observer_ros.config.values import check_inside, indices
 from observer_ros.core.angles import Angles
 from observer_ros.core.design.common import ObserverDesign
@@ -55,7 +55,7 @@ from observer_ros.core.observers import (
     disturbance_arguments, make_estimator, observer_type, ObserverType)
 from observer_ros.core.rules import ValueLimits
 from observer_ros.core.streaming import EventStream
-from observer_ros.core.units import NANOSECONDS
+from observer_ros.core.units import seconds_to_ns
 
 
 @dataclass(frozen=True)
@@ -113,61 +113,30 @@ def joint_state_selection(section: JointStatesSection,
     return JointStateSelection(names, **selected)
 
 
-@dataclass(frozen=True)
-class DesignedObserver:
+def observer_design(sections: Sections, augmentation: Augmentation) -> Optional['ObserverSetup']:
     """
-    What :func:`observer_design` decided: the type, its checked arguments and the design.
+    Design the observer of ``observer.*`` for the model; return its one setup object.
 
-    Attributes
-    ----------
-    kind : ObserverType
-    arguments : dict
-        The type's arguments by name, checked once (by the schema).
-    design : ObserverDesign or None
-        None when the arguments configure no observer (no poles, gain or noise).
-    initial_state : numpy.ndarray or None
-        ``observer.initial_state`` when given (it pins the first estimate).
-    binding : Binding
-        The arguments of the type's calls bound to their parameters.
-    design_source : str
-        The parameter a failed design is charged to when its error names none.
-    sources : SourcesSetup or None
-        ``observer.sources`` and ``sources.<name>.*`` (None: one source, ``topics.y``).
-    history_ns : int
-        ``observer.history``.
-    angles : Angles
-        ``model.angle_states`` and ``model.angle_outputs`` (checked against the model).
-
-    """
-
-    kind: ObserverType
-    arguments: dict
-    design: Optional[ObserverDesign]
-    initial_state: Optional[np.ndarray]
-    binding: Binding
-    design_source: str
-    sources: Optional[SourcesSetup] = None
-    history_ns: int = 0
-    angles: Angles = Angles()
-
-
-def observer_design(sections: Sections, augmentation: Augmentation) -> DesignedObserver:
-    """
-    Design the observer of ``observer.*`` for the model (and check its stream settings).
+    Every stream setting is converted here, once, into the unit the stream takes (seconds
+    to integer nanoseconds with :func:`~observer_ros.core.units.seconds_to_ns`), and the
+    type's arguments are those the schema converted (``poles`` a complex array). The
+    :class:`ObserverSetup` made here is handed on whole; None when the arguments configure
+    no observer (no poles, gain or noise).
 
     Raises
     ------
     ConfigError
         Naming the parameter: an unknown type, a failed design (charged to the argument the
-        error names, else to :attr:`DesignedObserver.design_source`), a resolution that
-        does not fit, an initial state of the wrong size or beyond ``topics.x_hat.limit``.
+        error names, else to :attr:`ObserverSetup.design_source`), a resolution that
+        does not fit, an initial state of the wrong size or beyond ``topics.x_hat.limit``,
+        joint states that are no states of the model.
 
     """
-    section, model = sections.observer, augmentation.model
+    section, model, topics = sections.observer, augmentation.model, sections.topics
     binding = ModelSection.binding() | section.binding()
     with binding.charged(binding['type']):
         kind = observer_type(section.type)
-    history_ns = check_history(sections)
+    history_ns = seconds_to_ns(section.history, binding['history'])
     sources = measurement_sources(sections, model)
     given = _with_source_noise(section.arguments, sources, kind, binding)
     design_source = binding.get(kind.charged_argument(given)) or binding['type']
@@ -184,15 +153,29 @@ def observer_design(sections: Sections, augmentation: Augmentation) -> DesignedO
     if section.initial_state:
         initial_state = vector_from_flat(binding['initial_state'], section.initial_state,
                                          model.n_states)
-        check_inside(binding['initial_state'], initial_state, sections.topics['x_hat'].limit,
+        check_inside(binding['initial_state'], initial_state, topics['x_hat'].limit,
                      'topics.x_hat.limit')
     angles = augmentation.angles
     if angles and not kind.capabilities.angles:
         parameter = binding['angle_outputs' if angles.outputs else 'angle_states']
         raise ConfigError(parameter, f'the {kind.name} observer cannot keep angles (its type '
                           f'has no capability angles); expected none, or another observer.type')
-    return DesignedObserver(kind, arguments, design, initial_state, binding, design_source,
-                            sources, history_ns, angles)
+    joint_states = joint_state_selection(section.joint_states, model)
+    if design is None:
+        return None
+    limits = ValueLimits(measurement=topics['y'].limit, input=topics['u'].limit,
+                         estimate=topics['x_hat'].limit, innovation=topics['innovation'].limit)
+    return ObserverSetup(
+        kind=kind, arguments=arguments, design=design, initial_state=initial_state,
+        interval_resolution_ns=seconds_to_ns(section.interval_resolution,
+                                             binding['interval_resolution']),
+        max_gap_ns=seconds_to_ns(section.max_gap, binding['max_gap']),
+        clock_tolerance_ns=seconds_to_ns(section.clock_tolerance, binding['clock_tolerance']),
+        input_wait_ns=seconds_to_ns(section.input_wait, binding['input_wait']),
+        publish_rate=section.publish_rate, limits=limits, input_stamped=topics['u'].stamped,
+        joint_states=joint_states, binding=binding, design_source=design_source,
+        sources=sources, history_ns=history_ns, angles=angles,
+        unstamped_input=section.unstamped_input)
 
 
 @contextmanager
@@ -237,17 +220,15 @@ def _check_interval_resolution(section: ObserverSection, model: StateSpaceModel)
                           f'period; expected 0, got {resolution}')
 
 
-def _ns(seconds: float) -> int:
-    return round(seconds * NANOSECONDS)
-
-
 @dataclass(frozen=True)
 class ObserverSetup:
     """
     The observer of a configuration: its design, and how its estimator and stream run.
 
-    Made by :func:`observer_ros.config.validate_parameters` when the parameters configure
-    an observer; the observer node, the bag replay and the tools run it.
+    The one configuration object of the observer part, made once by
+    :func:`observer_design` (through :func:`observer_ros.config.validate_parameters`) when
+    the parameters configure an observer, every value in its final type and unit, and
+    handed on whole: the observer node, the bag replay and the tools run it.
 
     Attributes
     ----------
@@ -305,23 +286,7 @@ class ObserverSetup:
     history_ns: int = 0
     angles: Angles = Angles()
     unstamped_input: str = 'arrival'
-
-    @classmethod
-    def of(cls, result: DesignedObserver, sections: Sections,
-           joint_states: Optional[JointStateSelection]) -> Optional['ObserverSetup']:
-        """Return the setup of a design and the stream's sections (None without a design)."""
-        if result.design is None:
-            return None
-        section, topics = sections.observer, sections.topics
-        limits = ValueLimits(measurement=topics['y'].limit, input=topics['u'].limit,
-                             estimate=topics['x_hat'].limit,
-                             innovation=topics['innovation'].limit)
-        return cls(result.kind, result.arguments, result.design, result.initial_state,
-                   _ns(section.interval_resolution), _ns(section.max_gap),
-                   _ns(section.clock_tolerance), _ns(section.input_wait), section.publish_rate,
-                   limits, topics['u'].stamped, joint_states, result.binding,
-                   result.design_source, result.sources, result.history_ns, result.angles,
-                   section.unstamped_input)
+    _built: list = dataclass_field(default_factory=list, compare=False, repr=False)
 
     @property
     def form(self) -> str:
@@ -393,6 +358,35 @@ class ObserverSetup:
                                sources=None if self.sources is None else self.sources.sources,
                                history_ns=self.history_ns,
                                output_names=self.design.model.output_names)
+
+    @property
+    def checks_sources(self) -> bool:
+        """Whether the stream checks rules of the sources (latency within the history...)."""
+        return self.sources is not None or self.keeps_history
+
+    def check_stream(self) -> None:
+        """
+        Build the stream now, which checks the sources' rules and asks the type about each.
+
+        :func:`observer_ros.config.validate_parameters` calls it once when
+        :attr:`checks_sources`; the stream it builds is the one :meth:`take_stream` hands
+        on first, not built again.
+
+        Raises
+        ------
+        ConfigError
+            As :meth:`make_stream`.
+
+        """
+        self._built[:] = [self.make_stream()]
+
+    def take_stream(self) -> EventStream:
+        """
+        Return the stream :meth:`check_stream` built, once; else build one (:meth:`make_stream`).
+
+        What a node runs: the stream checked at validation, handed on, not built twice.
+        """
+        return self._built.pop() if self._built else self.make_stream()
 
     @property
     def keeps_history(self) -> bool:

@@ -31,7 +31,7 @@ from observer_ros.config.timing import plant_rate
 from observer_ros.config.values import check_inside, input_limits
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.flat_matrices import covariance_from_flat, vector_from_flat
-from observer_ros.core.units import NANOSECONDS
+from observer_ros.core.units import rate_to_period_ns
 
 
 @dataclass(frozen=True)
@@ -92,7 +92,7 @@ class PlantSettings:
     @property
     def period_ns(self) -> int:
         """Sample period in integer nanoseconds."""
-        return int(round(NANOSECONDS / self.rate_hz))
+        return rate_to_period_ns(self.rate_hz, 'plant.rate_hz')
 
 
 def plant_settings(sections: Sections, augmentation: Augmentation) -> PlantSettings:

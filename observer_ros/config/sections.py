@@ -37,7 +37,7 @@ carries its argument and its reason, the binding the parameter; no text is parse
 """
 
 from contextlib import contextmanager
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 import difflib
 from typing import Any, Iterable, Iterator, Mapping
 
@@ -610,6 +610,38 @@ class Sections(Section):
 
     @classmethod
     def check(cls, params: Mapping[str, Any], strict: bool = False) -> 'Sections':
-        """Check ``params`` once (:func:`complete_parameters`) and read every section."""
+        """
+        Check ``params`` once (:func:`complete_parameters`) and read every section.
+
+        The observer types' arguments are converted once into the type their designs take
+        (:func:`converted_arguments`: ``observer.poles`` a complex array, from the numbers
+        or texts given).
+        """
         checked = complete_parameters(params, strict)
-        return cls(**cls.values(checked), parameters=checked)
+        values = cls.values(checked)
+        values['observer'] = replace(values['observer'],
+                                     arguments=converted_arguments(params, checked))
+        return cls(**values, parameters=checked)
+
+
+def converted_arguments(params: Mapping[str, Any], checked: Mapping[str, Any]) -> dict:
+    """
+    Return the observer types' arguments by their own names, each in its final type.
+
+    An argument with a ``parse`` (``poles``) is converted once from the value as given in
+    ``params`` (:meth:`~observer_ros.core.arguments.Argument.convert`: numbers stay
+    numbers on the way, texts are parsed), the others are the checked values. The checked
+    mapping keeps the parameter's own form (texts), for a parameter file written back.
+
+    Raises
+    ------
+    ConfigError
+        Naming the parameter (``observer.poles: cannot read 'x' as a pole``).
+
+    """
+    converted = {}
+    for argument, parameter in OBSERVER_ARGUMENTS.items():
+        spec = PARAMETER_SPECS[parameter]
+        converted[argument] = (checked[parameter] if spec.parse is None
+                               else spec.convert(params.get(parameter, spec.default)))
+    return converted

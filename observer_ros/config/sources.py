@@ -43,7 +43,7 @@ from observer_ros.core.errors import ConfigError
 from observer_ros.core.flat_matrices import covariance_from_flat
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.sources import MeasurementSource
-from observer_ros.core.units import NANOSECONDS
+from observer_ros.core.units import seconds_to_ns
 from observer_ros.wire import FieldPathError, FieldReader, find
 
 
@@ -71,10 +71,6 @@ class SourcesSetup:
     measurement_noise: Optional[np.ndarray] = None
 
 
-def _ns(seconds: float) -> int:
-    return round(seconds * NANOSECONDS)
-
-
 def _source(settings: SourceSettings, model: StateSpaceModel) -> MeasurementSource:
     """Check one source's own settings; return its MeasurementSource."""
     msgtype = FIELD_MESSAGE_TYPES[settings.type]
@@ -93,8 +89,8 @@ def _source(settings: SourceSettings, model: StateSpaceModel) -> MeasurementSour
     carried = indices(outputs, settings.outputs, model.output_names, 'output')
     if len(set(carried)) != len(carried):
         raise ConfigError(outputs, f'an output is named twice in {list(settings.outputs)}')
-    return MeasurementSource(settings.name, carried, _ns(settings.latency),
-                             _ns(settings.timeout), settings.predict_only)
+    return MeasurementSource(settings.name, carried, seconds_to_ns(settings.latency),
+                             seconds_to_ns(settings.timeout), settings.predict_only)
 
 
 def _noise_blocks(sources: tuple, settings: tuple, model: StateSpaceModel) -> Optional[
@@ -127,7 +123,10 @@ def measurement_sources(sections: Sections, model: StateSpaceModel) -> Optional[
         Naming the parameter: a wrong field path (with the type and the fields it has),
         outputs that are no outputs of the model, of the wrong count, in two sources or in
         none, a block of R of the wrong size or given for some sources only, a timeout not
-        above one sample period, a latency longer than ``observer.history``.
+        above one sample period. A latency longer than ``observer.history`` is refused
+        where the stream takes the sources
+        (:func:`~observer_ros.core.sources.check_sources`, the one place of that rule),
+        which :func:`~observer_ros.config.validate_parameters` builds once.
 
     """
     settings = tuple(sections.sources.values())
@@ -148,14 +147,8 @@ def measurement_sources(sections: Sections, model: StateSpaceModel) -> Optional[
     if missing:
         raise ConfigError('observer.sources', f'outputs {missing} belong to no source; '
                           f'expected every output of the model in one source')
-    history = sections.observer.history
     rate, rate_source = sample_rate(sections, model)
     for item in settings:
-        if item.latency > history:
-            raise ConfigError(item.parameter('latency'), f'{number_text(item.latency)} s is '
-                              f'longer than observer.history ({number_text(history)} s), '
-                              f'which takes the late samples in stamp order; expected at '
-                              f'most observer.history')
         if item.timeout and item.timeout * rate <= 1.0:
             raise ConfigError(item.parameter('timeout'), f'expected 0 (never stale) or more '
                               f'than one sample period ({number_text(1.0 / rate)} s at '
@@ -164,25 +157,6 @@ def measurement_sources(sections: Sections, model: StateSpaceModel) -> Optional[
     return SourcesSetup(sources, settings,
                         tuple(FIELD_MESSAGE_TYPES[item.type] for item in settings),
                         _noise_blocks(sources, settings, model))
-
-
-def check_history(sections: Sections) -> int:
-    """
-    Return ``observer.history`` in nanoseconds, at most ``observer.max_gap``.
-
-    Raises
-    ------
-    ConfigError
-        ``observer.history`` longer than ``observer.max_gap`` (beyond which the estimate
-        starts again, so nothing older can be inserted).
-
-    """
-    section = sections.observer
-    if section.history > section.max_gap:
-        raise ConfigError('observer.history', f'expected at most observer.max_gap '
-                          f'({number_text(section.max_gap)} s; beyond it the estimate starts '
-                          f'again), got {number_text(section.history)}')
-    return _ns(section.history)
 
 
 def check_input_fields(sections: Sections, model: StateSpaceModel) -> None:

@@ -17,15 +17,18 @@ Typed, ranged arguments: what an observer type reads and what a parameter schema
 
 An :class:`Argument` names a value, its value type (``double``, ``double_array``,
 ``string``, ``string_array``, ``integer``, ``bool``), default, range and description, and
-checks a given value with :meth:`Argument.coerce`. Observer types declare theirs by their
+checks a given value with :meth:`Argument.coerce` (the parameter's own value, the form a
+parameter file holds) and converts it into the type its user takes with
+:meth:`Argument.convert`, once (a pole list becomes a complex array straight from the
+numbers or texts given, through the argument's ``parse``). Observer types declare theirs by their
 own names (``poles``, ``gain``); the parameter schema (:mod:`observer_ros.config`) offers
 each under its parameter name (``observer.poles``), with what only a node knows: which nodes
 declare it and whether it may change at run time.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 import math
-from typing import Any, Optional
+from typing import Any, Callable, Optional
 
 import numpy as np
 
@@ -92,6 +95,10 @@ class Argument:
         Double arrays: the largest magnitude of an entry.
     choices : tuple of str
         Strings: the accepted values (empty: any).
+    parse : callable, optional
+        ``parse(entries, name)``: the final value of a string list whose entries may also
+        be written as numbers (a pole list, parsed into a complex array), raising
+        ConfigError naming ``name``; see :meth:`convert`.
 
     Examples
     --------
@@ -117,6 +124,8 @@ class Argument:
     unit: str = 'a value'
     entry_limit: Optional[float] = None
     choices: tuple = ()
+    parse: Optional[Callable[[list, str], Any]] = field(default=None, compare=False,
+                                                        repr=False)
 
     def range_text(self) -> str:
         """Return the accepted range in words (empty when any value of the type is)."""
@@ -190,6 +199,28 @@ class Argument:
                                       f'{number_text(item)}')
             return values
         return [item if isinstance(item, str) else str(item) for item in items]
+
+    def convert(self, value: Any) -> Any:
+        """
+        Return ``value`` checked and converted, once, into the type the argument's user takes.
+
+        Without ``parse``, what :meth:`coerce` returns. With it (a string list whose entries
+        may be numbers, such as poles), the entries as given, numbers as numbers and texts
+        as texts, are handed to ``parse``: a number never becomes a text on the way.
+
+        Raises
+        ------
+        ConfigError
+            Naming the argument, as :meth:`coerce` and ``parse`` do.
+
+        """
+        if self.parse is None:
+            return self.coerce(value)
+        if value is None:
+            value = self.default
+        if isinstance(value, (str, bytes)) or not hasattr(value, '__iter__'):
+            raise ConfigError(self.name, f'expected a list, got {value!r}')
+        return self.parse(list(value), self.name)
 
 
 def seconds(name: str, default: float, description: str, low: float, high: float,

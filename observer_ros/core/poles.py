@@ -42,8 +42,8 @@ def parse_pole(text: str, parameter: str = 'poles') -> complex:
 
     Parameters
     ----------
-    text : str or float
-        The pole; a number is taken as it is.
+    text : str or number
+        The pole; a number (real or complex) is taken as it is, never through a text.
     parameter : str
         Name used in error messages.
 
@@ -63,7 +63,7 @@ def parse_pole(text: str, parameter: str = 'poles') -> complex:
     ((-2-2j), (-3+0j))
 
     """
-    if isinstance(text, (int, float)) and not isinstance(text, bool):
+    if isinstance(text, (int, float, complex, np.number)) and not isinstance(text, bool):
         value = complex(text)
     else:
         cleaned = str(text).strip().replace(' ', '').replace('i', 'j')

@@ -26,12 +26,15 @@ stamps, and the estimator updates with the outputs that arrived
 one source, latencies within the history); :func:`check_subsets` asks the estimator, at
 start-up, whether each source alone can be updated with, and refuses one that cannot (an
 unobservable subset for a design per subset) unless it is declared ``predict_only``.
+:func:`check_sources` is the one place of the rule that a latency fits in the history: the
+parameter validation builds the stream, which calls it, instead of checking it again.
 """
 
 from dataclasses import dataclass
 from typing import Optional, Sequence
 
 from observer_ros.core.errors import ConfigError
+from observer_ros.core.units import NANOSECONDS
 
 __all__ = ['MeasurementSource', 'check_sources', 'check_subsets', 'default_source',
            'subset_of']
@@ -167,9 +170,10 @@ each output belongs to one source (two sensors of one quantity are two outputs)
         _integer(source.name, 'timeout_ns', source.timeout_ns)
         if latency > history_ns:
             raise ConfigError('history', f'source {source.name!r} has a latency of '
-                              f'{latency / 1e9:g} s, longer than the history '
-                              f'({history_ns / 1e9:g} s) that takes its samples in stamp '
-                              f'order; expected a history of at least {latency / 1e9:g} s')
+                              f'{latency / NANOSECONDS:g} s, longer than the history '
+                              f'({history_ns / NANOSECONDS:g} s) that takes its samples in '
+                              f'stamp order; expected a history of at least '
+                              f'{latency / NANOSECONDS:g} s')
     missing = [names[k] for k in range(n_outputs) if k not in owner]
     if missing:
         raise ConfigError('sources', f'outputs {missing} belong to no source; expected every '

@@ -47,7 +47,7 @@ from observer_ros.core.errors import ConfigError, ObserverRosError
 from observer_ros.core.estimators.intervals import IntervalDesigns
 from observer_ros.core.placement import preload_methods
 from observer_ros.core.rules import within_limit
-from observer_ros.core.units import NANOSECONDS
+from observer_ros.core.units import NANOSECONDS, rate_to_period_ns
 from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import (
     JointStatesEncoder, MalformedMessage, source_codecs, topic_codec)
@@ -78,7 +78,7 @@ class ObserverWiring:
         self.vet_system(system)
         preload_methods()  # no placement method may import a module on a callback path
         setup = system.observer
-        self.stream = setup.make_stream()
+        self.stream = setup.take_stream()
         self._design_expected_interval(system)
         covariance = setup.kind.capabilities.covariance
         topics = ('y', 'u', 'x_hat', 'innovation') + (COVARIANCE_TOPICS if covariance else ())
@@ -135,7 +135,7 @@ class ObserverWiring:
         estimator = self.stream.estimator
         if not isinstance(estimator, IntervalDesigns):
             return
-        period_ns = round(NANOSECONDS / system.sample_rate_hz)
+        period_ns = rate_to_period_ns(system.sample_rate_hz)
         try:
             estimator.intervals.peek(period_ns)
         except ObserverRosError as e:

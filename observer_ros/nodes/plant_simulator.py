@@ -75,7 +75,7 @@ from rosgraph_msgs.msg import Clock as ClockMessage
 from observer_ros.config import PLANT
 from observer_ros.core.rules import within_limit
 from observer_ros.core.simulation import PlantSimulator
-from observer_ros.core.units import NANOSECONDS
+from observer_ros.core.units import NANOSECONDS, seconds_to_ns
 from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import MalformedMessage, ns_to_stamp, VectorCodec
 from observer_ros.ros.parameters import ConfiguredNode
@@ -106,8 +106,8 @@ class PlantSimulatorNode(ConfiguredNode):
         self.autonomous = system.model.n_inputs == 0
         self.wait_for_command = plant.wait_for_command and not self.autonomous
         self.start_timeout = plant.start_timeout
-        self.settle_ns = round(plant.settle_time * NANOSECONDS)
-        self.command_timeout_ns = round(plant.command_timeout * NANOSECONDS)
+        self.settle_ns = seconds_to_ns(plant.settle_time)
+        self.command_timeout_ns = seconds_to_ns(plant.command_timeout)
         self.safe_input = self.simulator.saturate(plant.safe_input)
         self.hold_without_command = plant.hold_without_command and not self.autonomous
         #: Whether the interval after the current sample is held (no command in effect).

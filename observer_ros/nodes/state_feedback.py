@@ -53,7 +53,7 @@ from observer_ros.core.errors import ConfigError
 from observer_ros.core.feedback_law import IntegralAction, StateFeedbackLaw
 from observer_ros.core.placement import preload_methods
 from observer_ros.core.rules import within_limit
-from observer_ros.core.units import NANOSECONDS
+from observer_ros.core.units import NANOSECONDS, seconds_to_ns
 from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import LATEST_STAMP_NS, MalformedMessage, VectorCodec
 from observer_ros.ros.parameters import ConfiguredNode
@@ -149,7 +149,7 @@ class FeedbackCommands:
                                       (self.repeat_timer, new.safe_command_period,
                                        old.safe_command_period)):
             if period != before:
-                timer.timer_period_ns = round(period * NANOSECONDS)
+                timer.timer_period_ns = seconds_to_ns(period)
                 if not timer.is_canceled():
                     timer.reset()  # the new period counts from now
 
@@ -229,7 +229,7 @@ class FeedbackCommands:
             return
         timeout = self.system.feedback.timeout
         waited = time.monotonic_ns() - self.last_estimate_ns
-        if waited < round(timeout * NANOSECONDS):
+        if waited < seconds_to_ns(timeout):
             return  # an estimate re-armed the timer after this call was due
         self.watchdog.cancel()
         self.stale = True

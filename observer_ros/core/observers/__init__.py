@@ -186,7 +186,10 @@ class ObserverType:
 
     def values(self, given: Mapping[str, Any]) -> dict:
         """
-        Return the type's arguments checked, from ``given`` (defaults for the missing).
+        Return the type's arguments checked and converted once, from ``given``.
+
+        Defaults fill the missing; each value is in the type its design takes
+        (:meth:`~observer_ros.core.arguments.Argument.convert`: ``poles`` a complex array).
 
         Raises
         ------
@@ -194,7 +197,7 @@ class ObserverType:
             Naming the argument.
 
         """
-        return {argument.name: argument.coerce(given.get(argument.name, argument.default))
+        return {argument.name: argument.convert(given.get(argument.name, argument.default))
                 for argument in self.arguments}
 
     def charged_argument(self, given: Mapping[str, Any]) -> str:

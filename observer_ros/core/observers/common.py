@@ -15,7 +15,7 @@
 """What several observer types share: arguments, the poles they are designed for, a step form."""
 
 import math
-from typing import Mapping, Optional
+from typing import Mapping, Optional, Sequence
 
 import numpy as np
 
@@ -34,12 +34,34 @@ POLE_LIMIT = 1e9
 #: Estimate forms: the filtered ``x[k|k]`` or the one-step prediction ``x[k+1|k]``.
 FORMS = ('current', 'delayed')
 
+
+def read_poles(entries: Sequence, argument: str = 'poles') -> np.ndarray:
+    """
+    Parse a pole list once into the complex array a design takes; bound every pole.
+
+    The ``parse`` of :data:`POLES` (:meth:`~observer_ros.core.arguments.Argument.convert`):
+    numbers are taken as they are, texts parsed (:func:`~observer_ros.core.poles.parse_poles`).
+
+    Raises
+    ------
+    ConfigError
+        ``argument``: unreadable, unpaired, or beyond :data:`POLE_LIMIT`.
+
+    """
+    poles = parse_poles(entries, argument)
+    huge = poles[np.abs(poles) > POLE_LIMIT]
+    if huge.size:
+        raise ConfigError(argument, f'poles {format_modes(huge)} exceed {POLE_LIMIT:g} in '
+                          f'magnitude; no sampled design can realise them')
+    return poles
+
+
 POLES = Argument(
     'poles', STRING_ARRAY, [],
     'Observer error poles as strings ("-10", "-2+2j", "zeta=0.8, wn=10"); s-plane for a '
     'continuous model, z-plane for a discrete one. n poles (full order) or n - p (reduced '
     'order, Chen); with model.disturbances n counts the disturbance states too.',
-    tunable=True)
+    tunable=True, parse=read_poles)
 GAIN = array('gain', matrix_text('Given observer gain L instead of poles: n x p (full order) '
                                  'or (n-p) x p (reduced order, Chen)'), tunable=True)
 METHOD = Argument('method', STRING, 'auto',
@@ -65,7 +87,11 @@ POLE_ARGUMENTS = (POLES, GAIN, METHOD, ERROR_TOLERANCE, ERROR_TIME)
 
 def parsed_poles(values: Mapping, argument: str = 'poles') -> Optional[np.ndarray]:
     """
-    Parse a pole list (None when empty) and bound the magnitude of every pole.
+    Return the poles of ``values[argument]`` (None when empty), parsed and bounded once.
+
+    The checked values of a type (:meth:`~observer_ros.core.observers.ObserverType.values`,
+    the parameter schema) hold the complex array :func:`read_poles` made, which is returned
+    as it is; a list given as numbers or texts (a direct call) is read here.
 
     Raises
     ------
@@ -73,14 +99,12 @@ def parsed_poles(values: Mapping, argument: str = 'poles') -> Optional[np.ndarra
         ``argument``: unreadable, unpaired, or beyond :data:`POLE_LIMIT`.
 
     """
-    if not values[argument]:
+    given = values[argument]
+    if len(given) == 0:
         return None
-    poles = parse_poles(values[argument], argument)
-    huge = poles[np.abs(poles) > POLE_LIMIT]
-    if huge.size:
-        raise ConfigError(argument, f'poles {format_modes(huge)} exceed {POLE_LIMIT:g} in '
-                          f'magnitude; no sampled design can realise them')
-    return poles
+    if isinstance(given, np.ndarray) and given.dtype == complex:
+        return given
+    return read_poles(given, argument)
 
 
 def requested_poles(model: StateSpaceModel, values: Mapping, count: int) -> Optional[np.ndarray]:
@@ -131,7 +155,7 @@ def poles_or_gain(model: StateSpaceModel, values: Mapping, count: int, kind: str
     """
     poles = requested_poles(model, values, count)
     gain = values['gain'] or None
-    if gain is not None and values['poles']:
+    if gain is not None and len(values['poles']):
         raise ConfigError('gain', 'give either gain or poles, not both')
     if poles is not None and poles.size != count:
         raise ConfigError('poles', f'expected {count} poles for a {kind} observer of this '

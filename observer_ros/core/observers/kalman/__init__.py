@@ -61,7 +61,7 @@ INITIAL_COVARIANCE = array('initial_covariance', 'Time-varying Kalman: P0, n dia
 
 def _vet(model, given):
     """Refuse a gain or poles with a Kalman filter (its gain comes from the noises)."""
-    if given.get('gain') or given.get('poles'):
+    if given.get('gain') or len(given.get('poles', ())):
         raise ConfigError('gain', 'a Kalman filter takes its gain from process_noise and '
                           'measurement_noise; leave gain and poles empty')
 

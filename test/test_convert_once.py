@@ -1,0 +1,173 @@
+# Copyright 2026 observer_ros contributors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Each parameter converted once, at the edge, into its final type and unit.
+
+One seconds-to-nanoseconds rule (:mod:`observer_ros.core.units`), checked on its edge
+values and used everywhere in the package; ``observer.poles`` converted once into the
+complex array the design takes; the observer part one configuration object; the stream
+built once; the latency-within-history rule checked in one place.
+"""
+
+import re
+
+import pytest
+
+from conftest import CONFIG_DIR, REPOSITORY
+from observer_ros.config import load_parameter_file, ObserverSetup, validate_parameters
+import observer_ros.config.observer as config_observer
+import observer_ros.config.sources as config_sources
+from observer_ros.core import poles
+from observer_ros.core.errors import ConfigError
+import observer_ros.core.observers.full_order as full_order
+from observer_ros.core.units import NANOSECONDS, rate_to_period_ns, seconds_to_ns
+
+PACKAGE = REPOSITORY / 'observer_ros'
+
+#: A seconds-to-nanoseconds conversion written in place: a product with ``1e9`` or
+#: ``10**9``, a rounding or truncation of a product with (or a quotient of) NANOSECONDS.
+INLINE_CONVERSION = re.compile(
+    r'\*\s*1e9\b|\b1e9\s*\*|\*\s*10\s*\*\*\s*9\b|\b10\s*\*\*\s*9\s*\*|1_000_000_000'
+    r'|\b(?:round|int)\([^()]*\*\s*NANOSECONDS\b|\b(?:round|int)\(\s*NANOSECONDS\s*/')
+
+#: The stamp codec's integer ``sec``/``nanosec`` arithmetic: the wire package imports nothing
+#: of the package (test_core_layering), so it writes its one constant; everything else asks
+#: core.units.
+WIRE_CODEC = ('wire/',)
+
+
+@pytest.mark.parametrize('seconds, expected', [
+    (0, 0), (0.0, 0), (-0.0, 0), (2, 2 * NANOSECONDS),
+    (1e-9, 1), (-1e-9, -1), (0.999999999, 999_999_999), (1.000000001, 1_000_000_001),
+    (0.4e-9, 0), (0.6e-9, 1), (0.5e-9, 0), (1.5e-9, 2), (2.5e-9, 2), (-0.5e-9, 0),
+    (-1.5e-9, -2), (7e-9, 7), (0.3, 300_000_000), (0.01, 10_000_000),
+    (3600.001, 3_600_001_000_000), (1e12, 10 ** 21), (-1e12, -10 ** 21),
+])
+def test_seconds_become_the_nearest_nanosecond_ties_to_even(seconds, expected):
+    converted = seconds_to_ns(seconds)
+    assert converted == expected and type(converted) is int
+
+
+@pytest.mark.parametrize('seconds', [float('inf'), float('-inf'), float('nan'), 1e300])
+def test_seconds_that_are_not_finite_in_nanoseconds_are_refused_by_name(seconds):
+    with pytest.raises(ConfigError, match=r'^observer.max_gap: expected a finite number of '
+                       r'seconds, got'):
+        seconds_to_ns(seconds, 'observer.max_gap')
+
+
+@pytest.mark.parametrize('rate, expected', [
+    (100.0, 10_000_000), (3.0, 333_333_333), (30.0, 33_333_333), (1e9, 1), (3e9, 0),
+    (0.01, 100 * NANOSECONDS)])
+def test_a_rate_becomes_its_period_in_nanoseconds(rate, expected):
+    assert rate_to_period_ns(rate) == expected
+
+
+@pytest.mark.parametrize('rate', [0.0, -1.0, float('inf'), float('nan')])
+def test_a_rate_that_has_no_period_is_refused_by_name(rate):
+    with pytest.raises(ConfigError, match=r'^plant.rate_hz: expected a finite rate above 0'):
+        rate_to_period_ns(rate, 'plant.rate_hz')
+
+
+def test_the_package_converts_seconds_to_nanoseconds_with_the_one_rule_only():
+    found = []
+    for path in sorted(PACKAGE.rglob('*.py')):
+        relative = path.relative_to(PACKAGE).as_posix()
+        if relative == 'core/units.py' or relative.startswith(WIRE_CODEC):
+            continue
+        for number, line in enumerate(path.read_text(encoding='utf-8').splitlines(), 1):
+            if INLINE_CONVERSION.search(line.split('#')[0]):
+                found.append(f'{relative}:{number}: {line.strip()}')
+    assert not found, 'convert with core.units.seconds_to_ns / rate_to_period_ns:\n' + (
+        '\n'.join(found))
+
+
+#: A motor with one measured output (doc/configuration.md's example).
+MOTOR = {'model.A': [0.0, 1.0, 0.0, -2.0], 'model.B': [0.0, 4.0], 'model.C': [1.0, 0.0],
+         'model.state_names': ['q', 'q_dot'], 'model.input_names': ['effort'],
+         'model.output_names': ['q'], 'observer.poles': ['-8', '-9']}
+
+#: The motor's one output from one source, a std_msgs/Float64 ``data`` that comes late.
+LATE_SOURCE = {**MOTOR, 'observer.sources': ['encoder'], 'sources.encoder.type': 'float64',
+               'sources.encoder.fields': ['data'], 'sources.encoder.outputs': ['q'],
+               'sources.encoder.latency': 0.02}
+
+
+def test_the_poles_reach_the_design_as_the_one_complex_array_made_from_the_numbers_given(
+        monkeypatch):
+    received, parsed = [], []
+    design = full_order.design_full_order
+    parse_pole = poles.parse_pole
+
+    def receiving_design(model, requested, gain, method):
+        received.append(requested)
+        return design(model, requested, gain, method)
+
+    def recording_parse(text, parameter='poles'):
+        parsed.append(text)
+        return parse_pole(text, parameter)
+
+    monkeypatch.setattr(full_order, 'design_full_order', receiving_design)
+    monkeypatch.setattr(poles, 'parse_pole', recording_parse)
+    setup = validate_parameters({**MOTOR, 'observer.poles': [-8.0, -9]},
+                                node='observer').observer
+    converted = setup.arguments['poles']
+    assert converted.dtype == complex and converted.tolist() == [-8, -9]
+    assert len(received) == 1 and received[0] is converted  # handed on, not copied
+    assert parsed == [-8.0, -9]  # each number parsed once, as a number: never a text
+    assert sorted(setup.design.requested_poles.real) == [-9.0, -8.0]
+    assert setup.make_estimator().design.poles is setup.design.requested_poles  # FullOrderStep
+
+
+def test_the_observer_part_is_one_configuration_object_with_its_times_in_nanoseconds():
+    setup = validate_parameters({**MOTOR, 'observer.max_gap': 0.3,
+                                 'observer.input_wait': 1.5e-9}, node='observer').observer
+    assert isinstance(setup, ObserverSetup)
+    assert not hasattr(config_observer, 'DesignedObserver')  # no second object to copy from
+    assert (setup.max_gap_ns, setup.input_wait_ns) == (300_000_000, 2)
+
+
+def test_the_stream_validation_builds_is_the_one_the_node_takes(monkeypatch):
+    built = []
+    stream_class = config_observer.EventStream
+
+    def counting_stream(*args, **kwargs):
+        built.append(stream_class(*args, **kwargs))
+        return built[-1]
+
+    monkeypatch.setattr(config_observer, 'EventStream', counting_stream)
+    system = validate_parameters(load_parameter_file(str(CONFIG_DIR / 'wheeled_base_sources'
+                                                         '.yaml')), node='observer')
+    assert len(built) == 1  # the sources and each one's updates checked once, at start-up
+    assert system.observer.take_stream() is built[0]  # what the observer node runs
+    assert len(built) == 1
+    assert system.observer.take_stream() is not built[0] and len(built) == 2  # a fresh one
+
+
+def test_the_latency_within_the_history_rule_is_the_cores_for_one_source_too():
+    with pytest.raises(ConfigError, match=r"^observer.history: source 'encoder' has a latency "
+                       r'of 0.02 s, longer than the history \(0 s\)'):
+        validate_parameters(LATE_SOURCE, node='observer')
+    setup = validate_parameters({**LATE_SOURCE, 'observer.history': 0.02},
+                                node='observer').observer
+    assert setup.sources.sources[0].latency_ns == 20_000_000
+    assert setup.take_stream().engine.history_ns == 20_000_000
+
+
+def test_the_history_within_the_gap_rule_is_the_cores_alone():
+    with pytest.raises(ConfigError, match=r'^observer.history: expected 0 \.\.\. 1 s \(the gap '
+                       r'limit, beyond which the estimate starts again\), got 1.5 s$'):
+        validate_parameters({**MOTOR, 'observer.history': 1.5, 'observer.max_gap': 1.0},
+                            node='observer')
+    assert not hasattr(config_sources, 'check_history')
