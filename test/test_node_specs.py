@@ -25,6 +25,7 @@ from dataclasses import replace
 
 import pytest
 
+from conftest import REPOSITORY
 from observer_ros.config import node_specs, schema
 from observer_ros.config.configuration import NODE_PARTS
 from observer_ros.config.node_specs import NODE_SPECS, NodeSpec
@@ -78,3 +79,43 @@ def test_every_node_role_has_a_short_name_in_the_parameter_table():
     renamed = tuple(replace(spec, short=spec.short.upper()) for spec in NODE_SPECS)
     assert set(node_specs.short_names(renamed).values()) == {'PLANT', 'OBSERVER', 'FEEDBACK',
                                                              'CONTROLLER'}
+
+
+def test_the_managed_twins_are_made_from_the_specs_with_no_module_of_their_own():
+    from observer_ros.nodes.main import managed_class, node_class
+    from observer_ros.ros.lifecycle import ManagedNode
+    nodes = REPOSITORY / 'observer_ros' / 'nodes'
+    assert not sorted(nodes.glob('*_lifecycle.py'))
+    for spec in NODE_SPECS:
+        plain = node_class(spec.name)
+        assert plain.__name__ == spec.node_class
+        if not spec.managed:
+            with pytest.raises(ValueError, match=f'node: {spec.name} has no managed twin'):
+                managed_class(spec)
+            continue
+        twin = node_class(spec.managed_name)
+        assert twin is managed_class(spec)  # one class per spec
+        assert issubclass(twin, ManagedNode)
+        assert twin.__name__ == spec.node_class.replace('Node', 'LifecycleNode')
+        assert twin.__mro__[1].__name__ == spec.wiring
+
+
+def test_setup_declares_every_executable_of_the_specs_with_the_generic_main():
+    from importlib.metadata import entry_points
+    import observer_ros.nodes.main as node_main
+    installed = {point.name: point.value for point in entry_points(group='console_scripts')
+                 if point.value.startswith('observer_ros.')}
+    for spec in NODE_SPECS:
+        for name in spec.executables:
+            assert installed[name] == f'observer_ros.nodes.main:{name}', name
+            assert getattr(node_main, name).__name__ == name
+    for name, target, _ in node_specs.TOOLS:
+        assert installed[name] == target
+    with pytest.raises(AttributeError, match='no attribute'):
+        node_main.observer_lifecycle_twin
+
+
+def test_the_docs_index_lists_every_executable_of_the_specs():
+    index = (REPOSITORY / 'doc' / 'nodes' / 'index.md').read_text(encoding='utf-8')
+    table = [line for line in index.splitlines() if line.startswith('| [`')]
+    assert table == node_specs.index_rows()

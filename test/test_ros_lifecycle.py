@@ -32,14 +32,16 @@ from observer_ros.config import (
     CONTROLLER, FEEDBACK, node_parameters, OBSERVER, validate_parameters)
 from observer_ros.config import load_parameter_file
 from observer_ros.core.streaming import EventStream
-from observer_ros.nodes.observer_controller_lifecycle import ObserverControllerLifecycleNode
-from observer_ros.nodes.observer_lifecycle import ObserverLifecycleNode
+from observer_ros.nodes.main import node_class
 from observer_ros.nodes.plant_simulator import PlantSimulatorNode
-from observer_ros.nodes.state_feedback_lifecycle import StateFeedbackLifecycleNode
 from ros_support import (
     executor_with, NodeProcess, overrides, PROCESS_START, ros_context, spin_until)
 from test_ros_nodes import (
     Driver, joint_state, PERIOD_NS, plant_samples, SEED003, set_parameters, START_NS)
+
+ObserverLifecycleNode = node_class('observer_lifecycle')
+StateFeedbackLifecycleNode = node_class('state_feedback_lifecycle')
+ObserverControllerLifecycleNode = node_class('observer_controller_lifecycle')
 
 TRANSITIONS = {'configure': Transition.TRANSITION_CONFIGURE,
                'activate': Transition.TRANSITION_ACTIVATE,
@@ -387,3 +389,4 @@ def test_the_recipe_joint_is_held_until_the_managed_controller_commands(hold):
             held, now = plant.counters['held_samples'], plant.index
             assert spin_until(executor, lambda: plant.index >= now + 50, 30.0)
             assert plant.counters['held_samples'] == held  # commanded: no longer held
+

@@ -55,7 +55,6 @@ from observer_ros.nodes.observer import ObserverWiring
 from observer_ros.nodes.state_feedback import FeedbackCommands
 from observer_ros.ros.diagnostics import monitor
 from observer_ros.ros.parameters import ConfiguredNode
-from observer_ros.ros.run import run_node
 
 
 def _poles_text(poles) -> str:
@@ -70,7 +69,7 @@ class ObserverControllerWiring(ObserverWiring, FeedbackCommands):
     The controller's wiring: the observer's stream and the feedback law in one callback.
 
     :class:`ObserverControllerNode` builds it in its constructor, the managed variant
-    (:mod:`observer_ros.nodes.observer_controller_lifecycle`) on ``configure``.
+    (made from its spec by :func:`observer_ros.nodes.main.managed_class`) on ``configure``.
     """
 
     STALE_INPUT = 'estimate'
@@ -163,8 +162,3 @@ class ObserverControllerNode(ObserverControllerWiring, ConfiguredNode):
     def __init__(self, node_name: str = 'observer_controller', **kwargs) -> None:
         super().__init__(node_name, CONTROLLER, **kwargs)
         self.build(self.system)
-
-
-def main(args=None) -> int:
-    """Entry point of ``ros2 run observer_ros observer_controller``."""
-    return run_node(ObserverControllerNode, 'observer_controller', args)

@@ -57,7 +57,6 @@ from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import LATEST_STAMP_NS, MalformedMessage, VectorCodec
 from observer_ros.ros.parameters import ConfiguredNode
-from observer_ros.ros.run import run_node
 
 
 def feedback_law(system) -> StateFeedbackLaw:
@@ -268,7 +267,7 @@ class StateFeedbackWiring(FeedbackCommands):
     The state feedback's wiring: the law between ``x_hat``, ``reference`` and ``u_cmd``.
 
     A mixin: :class:`StateFeedbackNode` builds it in its constructor, the managed variant
-    (:mod:`observer_ros.nodes.state_feedback_lifecycle`) on ``configure``.
+    (made from its spec by :func:`observer_ros.nodes.main.managed_class`) on ``configure``.
     """
 
     def build(self, system) -> None:
@@ -333,8 +332,3 @@ class StateFeedbackNode(StateFeedbackWiring, ConfiguredNode):
     def __init__(self, node_name: str = 'state_feedback', **kwargs) -> None:
         super().__init__(node_name, FEEDBACK, **kwargs)
         self.build(self.system)
-
-
-def main(args=None) -> int:
-    """Entry point of ``ros2 run observer_ros state_feedback``."""
-    return run_node(StateFeedbackNode, 'state_feedback', args)
