@@ -24,6 +24,7 @@ from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState, GetState
 import numpy as np
 import pytest
+from rclpy.lifecycle import TransitionCallbackReturn
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
@@ -390,3 +391,29 @@ def test_the_recipe_joint_is_held_until_the_managed_controller_commands(hold):
             assert spin_until(executor, lambda: plant.index >= now + 50, 30.0)
             assert plant.counters['held_samples'] == held  # commanded: no longer held
 
+
+def test_a_managed_node_knows_what_it_made_and_destroys_exactly_that_by_name():
+    # Before, ManagedNode diffed vars(self) and its entity lists around configure; now it
+    # records each entity configure creates under its name and releases those.
+    with ros_context('--params-file', str(SEED003)) as context:
+        node = ObserverControllerLifecycleNode(context=context)
+        try:
+            before = node.create_publisher(JointState, 'made_before', 10)
+            assert node.made is None
+            assert node.trigger_configure() == TransitionCallbackReturn.SUCCESS
+            made = set(node.made)
+            assert {'publisher u_cmd', 'publisher x_hat', 'subscription y', 'subscription u',
+                    'subscription reference', 'publisher /diagnostics',
+                    'timer _on_watchdog', 'service ~/reset'} <= made, sorted(made)
+            assert 'publisher made_before' not in made
+            assert {'stream', 'law'} <= node.made_attributes
+            assert 'system' not in node.made_attributes  # there before configure
+            assert node.trigger_cleanup() == TransitionCallbackReturn.SUCCESS
+            assert node.made is None and not hasattr(node, 'stream')
+            topics = {publisher.topic_name for publisher in node.publishers}
+            assert before in node.publishers and not topics & {'/u_cmd', '/x_hat'}
+            assert list(node.timers) == [] and list(node.subscriptions) == []
+            assert node.trigger_configure() == TransitionCallbackReturn.SUCCESS
+            assert set(node.made) == made
+        finally:
+            node.destroy_node()
