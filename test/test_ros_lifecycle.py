@@ -254,7 +254,7 @@ def test_controller_commands_while_active_one_safe_command_on_deactivate_and_cle
             drive(driver, executor, node, samples[6:], None)
             assert len(driver.commands) == 5
             assert lifecycle.change('cleanup') and own_entities(node) == idle
-            assert list(node.timers) == [] and not hasattr(node, 'law')
+            assert list(node.timers) == [] and not hasattr(node, 'feedback_part')
 
 
 @pytest.mark.parametrize('factory, name, bad, fix, reason', [
@@ -406,7 +406,7 @@ def test_a_managed_node_knows_what_it_made_and_destroys_exactly_that_by_name():
                     'subscription reference', 'publisher /diagnostics',
                     'timer _on_watchdog', 'service ~/reset'} <= made, sorted(made)
             assert 'publisher made_before' not in made
-            assert {'stream', 'law'} <= node.made_attributes
+            assert {'stream', 'feedback_part'} <= node.made_attributes
             assert 'system' not in node.made_attributes  # there before configure
             assert node.trigger_cleanup() == TransitionCallbackReturn.SUCCESS
             assert node.made is None and not hasattr(node, 'stream')
