@@ -13,10 +13,22 @@
 # limitations under the License.
 
 from glob import glob
+from importlib.util import module_from_spec, spec_from_file_location
+from pathlib import Path
 
 from setuptools import find_packages, setup
 
 PACKAGE_NAME = 'observer_ros'
+
+
+def _node_specs():
+    """Load the node specs by path: a plain-data module (no rclpy, no numpy to import)."""
+    path = Path(__file__).resolve().parent / PACKAGE_NAME / 'config' / 'node_specs.py'
+    spec = spec_from_file_location('observer_ros_node_specs', path)
+    module = module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
 
 setup(
     name=PACKAGE_NAME,
@@ -40,22 +52,8 @@ setup(
     license='Apache-2.0',
     extras_require={'test': ['pytest']},
     entry_points={
-        'console_scripts': [
-            'design_observer = observer_ros.tools.design_observer:main',
-            'plant_simulator = observer_ros.nodes.plant_simulator:main',
-            'observer = observer_ros.nodes.observer:main',
-            'state_feedback = observer_ros.nodes.state_feedback:main',
-            'observer_lifecycle = observer_ros.nodes.observer_lifecycle:main',
-            'state_feedback_lifecycle = observer_ros.nodes.state_feedback_lifecycle:main',
-            'observer_controller = observer_ros.nodes.observer_controller:main',
-            'observer_controller_lifecycle = '
-            'observer_ros.nodes.observer_controller_lifecycle:main',
-            'closed_loop = observer_ros.nodes.closed_loop:main',
-            'replay = observer_ros.tools.replay:main',
-            'play_bag = observer_ros.nodes.bag_player:main',
-            'tune_kalman = observer_ros.tools.tune_kalman:main',
-            'identify = observer_ros.tools.identify:main',
-        ],
+        # Every node executable (and its managed twin's) from the node specs, then the tools.
+        'console_scripts': _node_specs().console_scripts(),
         # The observer types, found by observer_ros.core.observers through this group; a
         # separate package adds one in its own setup.py. Each type's priority orders them
         # (full_order, reduced_order, chen, kalman), not this list.

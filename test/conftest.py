@@ -14,7 +14,6 @@
 
 """Shared fixtures: an isolated ROS domain per test run, the shipped configs, the scripts."""
 
-import ast
 import os
 from pathlib import Path
 import random
@@ -76,14 +75,9 @@ def match(achieved, wanted):
 
 
 def console_scripts() -> list:
-    """Names of the console scripts declared in setup.py."""
-    tree = ast.parse((REPOSITORY / 'setup.py').read_text(encoding='utf-8'))
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Dict):
-            for key, value in zip(node.keys, node.values):
-                if isinstance(key, ast.Constant) and key.value == 'console_scripts':
-                    return [ast.literal_eval(item).split('=')[0].strip() for item in value.elts]
-    raise AssertionError('no console_scripts in setup.py')
+    """Names of the console scripts setup.py declares (from the node specs and tools)."""
+    from observer_ros.config.node_specs import console_scripts as declared
+    return [item.split('=')[0].strip() for item in declared()]
 
 
 #: Where ``ros2 run`` finds the console scripts: ``<prefix>/lib/<package>`` (setup.cfg).

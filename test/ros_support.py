@@ -241,8 +241,8 @@ def run_lockstep(config, samples, extra=(), reference=None, bag=None, storage='m
                 helper.create_timer(0.01, lambda: publisher.publish(
                     JointState(name=names, position=list(reference))))
                 loop.executor.add_node(helper)
-                assert spin_until(loop.executor, lambda: loop.feedback.reference is not None,
-                                  10.0), 'the reference never reached state_feedback'
+                assert spin_until(loop.executor, lambda: loop.feedback.feedback_part.reference
+                                  is not None, 10.0), 'the reference never reached state_feedback'
             assert loop.spin(timeout_sec=60.0), 'the lockstep run did not finish'
             recorder = loop.recorder
             if bag is not None:

@@ -56,6 +56,7 @@ import yaml
 from conftest import console_script, console_scripts, REPOSITORY
 from doc_support import code_blocks, commands, OUTPUT_MARK, pages, SHELL_LANGUAGES, shows
 from observer_ros.config import PARAMETER_SPECS
+from observer_ros.config.node_specs import NODE_SPECS
 
 PAGES = pages()
 
@@ -71,8 +72,7 @@ COVERED_ELSEWHERE = {
 PIP_SETUP = ('./scripts/demo.sh', 'source scripts/setup_env.sh', 'source .venv/bin/activate')
 
 #: Console scripts that run until they are stopped: started, let come up, stopped.
-NODES = ('observer', 'state_feedback', 'plant_simulator', 'observer_lifecycle',
-         'state_feedback_lifecycle', 'observer_controller', 'observer_controller_lifecycle')
+NODES = tuple(name for spec in NODE_SPECS for name in spec.executables)
 
 #: What a checkout holds that the pages' commands use.
 CHECKOUT = ('config', 'launch', 'scripts', 'benchmarks', 'requirements.txt', 'setup.py',

@@ -171,7 +171,7 @@ def test_bad_messages_never_reach_the_estimate(node_class):
                     assert spin_until(executor, lambda: len(driver.commands) >= len(got), 5.0)
                     commands = np.array([list(m.position) for m in driver.commands])
                     assert np.array_equal(commands, np.array(
-                        [observer.law.command(s.estimate, None) for s in reference]))
+                        [observer.feedback_part.law.command(s.estimate, None) for s in reference]))
                 campaign['examples'] += 1
 
             example()
@@ -219,12 +219,12 @@ def test_bad_estimates_and_references_never_reach_the_command():
                     estimate = rng.uniform(-1.0, 1.0, size=len(law_names))
                     stamp = clock.now().nanoseconds - 10 ** 9 + index
                     driver.x_hat.publish(message(stamp, law_names, estimate))
-                    sent.append((stamp, feedback.law.command(estimate, None)))
+                    sent.append((stamp, feedback.feedback_part.law.command(estimate, None)))
                     assert spin_until(executor, lambda: any(
                         stamp_to_ns(m.header.stamp) == stamp for m in driver.commands), 5.0)
                 for key, count in expected.items():
                     assert feedback.counters[key] - before.get(key, 0) == count, key
-                assert feedback.reference is None  # no bad reference was taken
+                assert feedback.feedback_part.reference is None  # no bad reference was taken
                 by_stamp = {stamp_to_ns(m.header.stamp): np.array(m.position)
                             for m in driver.commands}
                 for stamp, command in sent:
@@ -364,7 +364,8 @@ def test_every_run_time_parameter_update_is_vetted(config, node_role):
                 parameters = [as_parameter(spec.name, value_for(spec, data))
                               for spec in chosen]
                 before = node.current_parameters()
-                design = (node.stream.estimator.design if role == OBSERVER else node.law)
+                design = (node.stream.estimator.design if role == OBSERVER
+                          else node.feedback_part.law)
                 accepted, reason = predicted(node, parameters)
                 result = node.set_parameters_atomically(parameters)
                 assert result.successful == accepted, (parameters, result.reason, reason)
@@ -375,7 +376,7 @@ def test_every_run_time_parameter_update_is_vetted(config, node_role):
                     assert name in PARAMETER_SPECS, result.reason
                     assert node.current_parameters() == before
                     assert (node.stream.estimator.design if role == OBSERVER
-                            else node.law) is design
+                            else node.feedback_part.law) is design
                 else:
                     outcomes['accepted'] += 1
                 check_still_working(node, role, driver, executor, clock)

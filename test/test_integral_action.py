@@ -231,21 +231,23 @@ def test_a_refused_gain_change_keeps_the_integrator_and_an_accepted_one_resets_i
         node = StateFeedbackNode(context=context, parameter_overrides=overrides(**values))
         try:
             assert node.measurement_subscription is not None  # integral action reads y
-            integral = node.law.integral
+            integral = node.feedback_part.law.integral
             for k in range(5):
                 integral.measure(k, [0.0])
-                node.law.command(np.zeros(2), np.array([1.0]), k)
+                node.feedback_part.law.command(np.zeros(2), np.array([1.0]), k)
             assert integral.state[0] > 0
             before = integral.state.copy()
             result = node.set_parameters([Parameter('feedback.integral_poles', value=['6'])])
             assert not result[0].successful and 'feedback.integral_poles' in result[0].reason
-            assert node.law.integral is integral and np.array_equal(integral.state, before)
+            assert node.feedback_part.law.integral is integral
+            assert np.array_equal(integral.state, before)
             result = node.set_parameters([Parameter('feedback.timeout', value=0.25)])
-            assert result[0].successful and node.law.integral is integral  # z kept
+            assert result[0].successful and node.feedback_part.law.integral is integral  # z kept
             result = node.set_parameters([Parameter('feedback.integral_poles', value=['-5'])])
             assert result[0].successful
-            assert node.law.integral.state.tolist() == [0.0]  # new gains: z starts afresh
-            assert node.law.integral.gain[0, 0] != integral.gain[0, 0]
+            # New gains: z starts afresh.
+            assert node.feedback_part.law.integral.state.tolist() == [0.0]
+            assert node.feedback_part.law.integral.gain[0, 0] != integral.gain[0, 0]
         finally:
             node.destroy_node()
 
@@ -266,7 +268,7 @@ def test_integral_action_switched_on_at_run_time_watches_y():
             ns_to_stamp(message.header.stamp, 10_000_000)
             node._on_measurement(serialize_message(message))
             assert node.health.monitors['y'].count == 1
-            assert node.law.integral is not None
+            assert node.feedback_part.law.integral is not None
         finally:
             node.destroy_node()
 

@@ -28,17 +28,15 @@ import importlib.util
 import pytest
 
 from conftest import console_scripts, REPOSITORY
-from observer_ros.config import (
-    COMBINED_NODES, CONTROLLER, FEEDBACK, OBSERVER, PARAMETER_SPECS, PLANT, TOPIC_ROLES)
+from observer_ros.config import COMBINED_NODES, PARAMETER_SPECS, TOPIC_ROLES
+from observer_ros.config.node_specs import NODE_SPECS
 from observer_ros.ros.executors import EXECUTORS
 
 LAUNCH_FILES = sorted((REPOSITORY / 'launch').glob('*.launch.py'))
 LAUNCH_PAGE = (REPOSITORY / 'doc' / 'lifecycle_and_launch.md').read_text(encoding='utf-8')
 
-#: The role (parameter and topic set) of each node executable.
-ROLES = {'plant_simulator': PLANT, 'observer': OBSERVER, 'observer_lifecycle': OBSERVER,
-         'state_feedback': FEEDBACK, 'state_feedback_lifecycle': FEEDBACK,
-         'observer_controller': CONTROLLER, 'observer_controller_lifecycle': CONTROLLER}
+#: The role (parameter and topic set) of each node executable, from the node specs.
+ROLES = {name: spec.name for spec in NODE_SPECS for name in spec.executables}
 
 
 def calls(tree, *names) -> list:

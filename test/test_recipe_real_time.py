@@ -215,7 +215,8 @@ def late_real_time_loop(step: float, unstamped_input: str) -> np.ndarray:
                 JointState(name=['shoulder'], position=[step])))
             loop.executor.add_node(helper)
             loop.executor.add_node(relay)
-            assert spin_until(loop.executor, lambda: loop.feedback.reference is not None
+            assert spin_until(loop.executor, lambda: loop.feedback.feedback_part.reference
+                              is not None
                               and relay.late['y'].get_subscription_count() >= 1
                               and relay.late['u'].get_subscription_count() >= 1, 30.0)
             assert loop.spin(timeout_sec=120.0), 'the real-time run did not finish'

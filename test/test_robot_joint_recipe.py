@@ -102,12 +102,13 @@ def test_integral_action_with_a_load_model_feeds_back_k_and_zero_on_the_estimate
     with ros_context('--params-file', str(CONFIG_DIR / CONFIG)) as context:
         node = StateFeedbackNode(context=context)
         try:
-            np.testing.assert_array_equal(node.law.gain, feedback.estimate_gain)
-            np.testing.assert_array_equal(node.law.integral.gain, integral.integral_gain)
+            np.testing.assert_array_equal(node.feedback_part.law.gain, feedback.estimate_gain)
+            np.testing.assert_array_equal(node.feedback_part.law.integral.gain,
+                                          integral.integral_gain)
             assert node.measurement_subscription is not None
             estimate = np.array([0.25, -1.0, -2.0])  # q, q_dot, load
-            node.law.integral.measure(0, [0.25])
-            command = node.law.command(estimate, np.array([STEP]), 0)
+            node.feedback_part.law.integral.measure(0, [0.25])
+            command = node.feedback_part.law.command(estimate, np.array([STEP]), 0)
             assert command[0] == pytest.approx(-(integral.gain @ estimate[:2])[0])
         finally:
             node.destroy_node()

@@ -77,21 +77,21 @@ def test_disturbance_rejection_is_validated_at_run_time():
         feedback = StateFeedbackNode(context=context)
         client = Node('client', context=context)
         with executor_with(context, feedback, client) as executor:
-            assert feedback.law.gain[0, 2] == 1.0  # [K, K_d]: the load is cancelled
+            assert feedback.feedback_part.law.gain[0, 2] == 1.0  # [K, K_d]: the load is cancelled
             result = set_parameters(executor, client, 'state_feedback',
                                     feedback__disturbance_rejection=False)
             assert result.successful, result.reason
-            assert feedback.law.gain[0, 2] == 0.0
-            np.testing.assert_array_equal(feedback.law.gain[:, :2],
+            assert feedback.feedback_part.law.gain[0, 2] == 0.0
+            np.testing.assert_array_equal(feedback.feedback_part.law.gain[:, :2],
                                           feedback.system.feedback.design.gain)
     with ros_context('--params-file', str(CONFIG_DIR / 'seed003_full_order.yaml')) as context:
         feedback = StateFeedbackNode(context=context)
         client = Node('client', context=context)
         with executor_with(context, feedback, client) as executor:
-            gain_before = feedback.law.gain.copy()
+            gain_before = feedback.feedback_part.law.gain.copy()
             result = set_parameters(executor, client, 'state_feedback',
                                     feedback__disturbance_rejection=True)
             assert not result.successful
             assert result.reason.startswith('feedback.disturbance_rejection: expected a model '
                                             'with a matched input disturbance'), result.reason
-            assert np.array_equal(feedback.law.gain, gain_before)
+            assert np.array_equal(feedback.feedback_part.law.gain, gain_before)

@@ -24,6 +24,7 @@ from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState, GetState
 import numpy as np
 import pytest
+from rclpy.lifecycle import TransitionCallbackReturn
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
@@ -32,14 +33,16 @@ from observer_ros.config import (
     CONTROLLER, FEEDBACK, node_parameters, OBSERVER, validate_parameters)
 from observer_ros.config import load_parameter_file
 from observer_ros.core.streaming import EventStream
-from observer_ros.nodes.observer_controller_lifecycle import ObserverControllerLifecycleNode
-from observer_ros.nodes.observer_lifecycle import ObserverLifecycleNode
+from observer_ros.nodes.main import node_class
 from observer_ros.nodes.plant_simulator import PlantSimulatorNode
-from observer_ros.nodes.state_feedback_lifecycle import StateFeedbackLifecycleNode
 from ros_support import (
     executor_with, NodeProcess, overrides, PROCESS_START, ros_context, spin_until)
 from test_ros_nodes import (
     Driver, joint_state, PERIOD_NS, plant_samples, SEED003, set_parameters, START_NS)
+
+ObserverLifecycleNode = node_class('observer_lifecycle')
+StateFeedbackLifecycleNode = node_class('state_feedback_lifecycle')
+ObserverControllerLifecycleNode = node_class('observer_controller_lifecycle')
 
 TRANSITIONS = {'configure': Transition.TRANSITION_CONFIGURE,
                'activate': Transition.TRANSITION_ACTIVATE,
@@ -251,7 +254,7 @@ def test_controller_commands_while_active_one_safe_command_on_deactivate_and_cle
             drive(driver, executor, node, samples[6:], None)
             assert len(driver.commands) == 5
             assert lifecycle.change('cleanup') and own_entities(node) == idle
-            assert list(node.timers) == [] and not hasattr(node, 'law')
+            assert list(node.timers) == [] and not hasattr(node, 'feedback_part')
 
 
 @pytest.mark.parametrize('factory, name, bad, fix, reason', [
@@ -387,3 +390,30 @@ def test_the_recipe_joint_is_held_until_the_managed_controller_commands(hold):
             held, now = plant.counters['held_samples'], plant.index
             assert spin_until(executor, lambda: plant.index >= now + 50, 30.0)
             assert plant.counters['held_samples'] == held  # commanded: no longer held
+
+
+def test_a_managed_node_knows_what_it_made_and_destroys_exactly_that_by_name():
+    # Before, ManagedNode diffed vars(self) and its entity lists around configure; now it
+    # records each entity configure creates under its name and releases those.
+    with ros_context('--params-file', str(SEED003)) as context:
+        node = ObserverControllerLifecycleNode(context=context)
+        try:
+            before = node.create_publisher(JointState, 'made_before', 10)
+            assert node.made is None
+            assert node.trigger_configure() == TransitionCallbackReturn.SUCCESS
+            made = set(node.made)
+            assert {'publisher u_cmd', 'publisher x_hat', 'subscription y', 'subscription u',
+                    'subscription reference', 'publisher /diagnostics',
+                    'timer _on_watchdog', 'service ~/reset'} <= made, sorted(made)
+            assert 'publisher made_before' not in made
+            assert {'stream', 'feedback_part'} <= node.made_attributes
+            assert 'system' not in node.made_attributes  # there before configure
+            assert node.trigger_cleanup() == TransitionCallbackReturn.SUCCESS
+            assert node.made is None and not hasattr(node, 'stream')
+            topics = {publisher.topic_name for publisher in node.publishers}
+            assert before in node.publishers and not topics & {'/u_cmd', '/x_hat'}
+            assert list(node.timers) == [] and list(node.subscriptions) == []
+            assert node.trigger_configure() == TransitionCallbackReturn.SUCCESS
+            assert set(node.made) == made
+        finally:
+            node.destroy_node()

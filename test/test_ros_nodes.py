@@ -287,7 +287,7 @@ def test_feedback_timeout_publishes_the_safe_command_once_per_outage():
             assert list(driver.commands[-1].position) == [0.25]
             # x_hat is back: feedback resumes.
             driver.x_hat.publish(joint_state(START_NS + PERIOD_NS, ['x1', 'x2'], estimate))
-            assert spin_until(executor, lambda: not feedback.stale, 5.0)
+            assert spin_until(executor, lambda: not feedback.feedback_part.stale, 5.0)
             assert spin_until(executor, lambda: np.allclose(
                 driver.commands[-1].position, -gain @ estimate), 5.0)
 
@@ -297,18 +297,18 @@ def test_feedback_gain_that_destabilises_the_loop_is_refused():
         feedback = StateFeedbackNode(context=context)
         client = Node('client', context=context)
         with executor_with(context, feedback, client) as executor:
-            gain_before = feedback.law.gain.copy()
+            gain_before = feedback.feedback_part.law.gain.copy()
             result = set_parameters(executor, client, 'state_feedback',
                                     feedback__poles=[], feedback__gain=[0.0, 0.0])
             assert not result.successful
             assert 'feedback.gain' in result.reason and 'stable' in result.reason, result.reason
-            assert np.array_equal(feedback.law.gain, gain_before)
+            assert np.array_equal(feedback.feedback_part.law.gain, gain_before)
             result = set_parameters(executor, client, 'state_feedback',
                                     feedback__poles=['-5', '-6'])
             assert result.successful, result.reason
             np.testing.assert_allclose(
                 np.sort(np.linalg.eigvals(feedback.system.model.a - feedback.system.model.b
-                                          @ feedback.law.gain).real), [-6.0, -5.0])
+                                          @ feedback.feedback_part.law.gain).real), [-6.0, -5.0])
 
 
 def test_observer_remapped_to_joint_states_with_extra_joints():

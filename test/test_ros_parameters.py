@@ -25,16 +25,17 @@ from rclpy.parameter import Parameter
 
 from conftest import CONFIG_DIR
 from observer_ros.core.errors import ConfigError
+from observer_ros.nodes.main import node_class as executable_class
 from observer_ros.nodes.observer import ObserverNode
 from observer_ros.nodes.observer_controller import ObserverControllerNode
-from observer_ros.nodes.observer_controller_lifecycle import ObserverControllerLifecycleNode
-from observer_ros.nodes.observer_lifecycle import ObserverLifecycleNode
 from observer_ros.nodes.plant_simulator import PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.parameters import PARAMETER_TYPES
 from ros_support import ros_context
 
 SEED003 = CONFIG_DIR / 'seed003_full_order.yaml'
+ObserverLifecycleNode = executable_class('observer_lifecycle')
+ObserverControllerLifecycleNode = executable_class('observer_controller_lifecycle')
 
 
 @pytest.mark.parametrize('node_class', [ObserverNode, ObserverControllerNode])

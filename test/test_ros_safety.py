@@ -125,7 +125,7 @@ class FeedbackBench:
         # sent, steady ns when the last estimate was accepted, cpu_wait_ns() then, outages
         # so far (the stale counter), the stamp it got].
         self.safe_sent = []
-        feedback = self.feedback
+        feedback = self.feedback.feedback_part  # the node's feedback part
         send, publish = feedback.send_safe_command, feedback.publisher.publish
 
         def recorded_send():
@@ -215,7 +215,7 @@ class FeedbackBench:
         it; how long the process waited for a CPU from that publishing to that sending.
         ``at_outage()`` runs right after the last estimate's command arrived.
         """
-        feedback = self.feedback
+        feedback = self.feedback.feedback_part
         stale = feedback.command_counters['stale']
         self.run_estimates()
         published, cpu_wait = self.published_at, self.cpu_wait_at
@@ -304,11 +304,11 @@ def test_first_safe_command_within_the_promised_bound_then_repeated(
     assert_within_promise(delays)
     for stamps, waited in repeats:
         assert 8 - int(waited / SAFE_PERIOD) <= len(stamps) <= 11, (stamps, waited)
-    assert bench.feedback.command_counters['stale'] == 5
+    assert bench.feedback.feedback_part.command_counters['stale'] == 5
     # x_hat back: the commands resume at once and the repeats stop.
     count = len(bench.commands)
     bench.run_estimates(count=3)
-    assert not bench.feedback.stale
+    assert not bench.feedback.feedback_part.stale
     spin_for(bench.executor, 3 * SAFE_PERIOD)
     late = [c for c in bench.commands[count:] if c[2] == SAFE_COMMAND]
     assert len(late) <= 1, late  # at most one repeat already on its way
@@ -365,7 +365,7 @@ def test_sim_time_clock_stop_still_gives_the_safe_command(bench_factory, executo
     stamp = bench.publish_estimate()
     assert spin_until(bench.executor, lambda: bench.received(stamp), 2.0, bench.tick)
     assert bench.received(stamp)[0][2] != SAFE_COMMAND
-    assert not bench.feedback.stale
+    assert not bench.feedback.feedback_part.stale
 
 
 @pytest.mark.parametrize('executor', EXECUTORS)
@@ -394,12 +394,12 @@ def test_no_non_finite_command_is_ever_published(bench_factory, executor):
 def test_estimates_and_references_beyond_their_limits_are_dropped(bench_factory, executor):
     bench = bench_factory(executor, topics__x_hat__limit=1e3, topics__reference__limit=10.0,
                           topics__u_cmd__limit=100.0)
-    gain = bench.feedback.law.gain
+    gain = bench.feedback.feedback_part.law.gain
     beyond = bench.publish_estimate([1e4, 0.0])
     bench.reference.publish(JointState(name=['y1'], position=[100.0]))
     assert spin_until(bench.executor, lambda: bench.feedback.counters['out_of_range'] == 2,
                       5.0)
-    assert bench.feedback.reference is None
+    assert bench.feedback.feedback_part.reference is None
     big, fine = bench.publish_estimate([10.0, 0.0]), bench.publish_estimate([1.0, 0.0])
     assert spin_until(bench.executor, lambda: bench.received(big) and bench.received(fine),
                       5.0)

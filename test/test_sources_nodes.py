@@ -321,7 +321,8 @@ def test_an_early_stamped_outlier_does_not_silence_the_genuine_samples(history):
 
 def test_the_sources_status_reports_each_source_and_a_stale_one_warns():
     from geometry_msgs.msg import PoseStamped
-    from observer_ros.nodes.observer_lifecycle import ObserverLifecycleNode
+    from observer_ros.nodes.main import node_class
+    ObserverLifecycleNode = node_class('observer_lifecycle')
     from ros_support import DiagnosticsListener
     settings = {**BASE, 'diagnostics.period': 0.1, 'sources.camera.timeout': 0.3,
                 'sources.wheels.topic': 'joint_states', 'sources.camera.topic': 'pose',

@@ -28,8 +28,8 @@ from conftest import CONFIG_DIR, console_script
 from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.errors import ConfigError
 from observer_ros.nodes.closed_loop import main as closed_loop_main
-from observer_ros.nodes.observer import main as observer_main
-from observer_ros.nodes.plant_simulator import main as plant_main
+from observer_ros.nodes.main import observer as observer_main
+from observer_ros.nodes.main import plant_simulator as plant_main
 from observer_ros.tools.design_observer import main as design_main
 
 MIXED = ('model.A: a list mixing integers and floats ([2, 3.0, -1.0, 4.0]): the ROS parameter '

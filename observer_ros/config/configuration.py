@@ -29,9 +29,9 @@ from typing import Any, Mapping, Optional
 from observer_ros.config.feedback import feedback_settings, FeedbackSettings
 from observer_ros.config.loop import analyse_loop, LoopAnalysis
 from observer_ros.config.model import Augmentation
+from observer_ros.config.node_specs import node_parts
 from observer_ros.config.observer import observer_design, ObserverSetup
 from observer_ros.config.plant import plant_settings, PlantSettings
-from observer_ros.config.schema import CONTROLLER, FEEDBACK, OBSERVER, PLANT
 from observer_ros.config.sections import DiagnosticsSection, Sections, TopicsSection
 from observer_ros.config.sources import check_input_fields
 from observer_ros.config.timing import check_sample_period, sample_rate
@@ -43,10 +43,10 @@ from observer_ros.core.streaming import EventStream
 PARTS = ('observer', 'feedback', 'plant')
 
 #: The parts each node builds from its sections (every node also has the model, the
-#: topics and the diagnostics). A node that runs an observer and a feedback law lists both
-#: (and then also gets the loop analysis); the CLI and the bag tools build every part.
-NODE_PARTS = {PLANT: ('plant',), OBSERVER: ('observer',), FEEDBACK: ('feedback',),
-              CONTROLLER: ('observer', 'feedback')}
+#: topics and the diagnostics), from its spec (:mod:`observer_ros.config.node_specs`). A
+#: node that runs an observer and a feedback law lists both (and then also gets the loop
+#: analysis); the CLI and the bag tools build every part.
+NODE_PARTS = node_parts()
 
 
 @dataclass(frozen=True)

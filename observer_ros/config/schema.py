@@ -25,6 +25,8 @@ plant simulator and the message settings of each topic (``topics.<topic>.*``).
 from dataclasses import dataclass, fields
 import json
 
+from observer_ros.config.node_specs import (
+    combined_nodes, node_spec, own_nodes, short_names, topic_nodes)
 from observer_ros.core.arguments import (
     Argument, array as _array, BOOL, DOUBLE, ENTRY_LIMIT, INTEGER, matrix_text as _matrix,
     number_text, SEED_MAX, STRING, STRING_ARRAY)
@@ -33,16 +35,19 @@ from observer_ros.core.observers import observer_arguments, observer_type_names,
 from observer_ros.core.placement import METHODS
 from observer_ros.wire import JOINT_STATE_FIELDS, message_types, TYPE_NAMES
 
-#: The nodes of the package, by the name each declares its parameters under.
-PLANT, OBSERVER, FEEDBACK = 'plant_simulator', 'observer', 'state_feedback'
-ALL_NODES = (PLANT, OBSERVER, FEEDBACK)
+#: The nodes of the package, by the name each declares its parameters under: the nodes of
+#: their own, in the order of :data:`~observer_ros.config.node_specs.NODE_SPECS`.
+ALL_NODES = own_nodes()
 
-#: The one-process observer and state feedback (``observer_controller``): it declares the
-#: parameters of both (:data:`COMBINED_NODES`) and its own ``controller.*``.
-CONTROLLER = 'observer_controller'
+#: Nodes that declare the parameters of several others, besides their own: the one-process
+#: observer and state feedback (``observer_controller``) declares both and its own
+#: ``controller.*``.
+COMBINED_NODES = combined_nodes()
 
-#: Nodes that declare the parameters of several others, besides their own.
-COMBINED_NODES = {CONTROLLER: (OBSERVER, FEEDBACK)}
+#: The roles the schema's tables name (each checked against the node specs).
+PLANT, OBSERVER, FEEDBACK, CONTROLLER = (
+    node_spec(name).name
+    for name in ('plant_simulator', 'observer', 'state_feedback', 'observer_controller'))
 
 #: Where the controller takes the input of its next prediction from.
 CONTROLLER_INPUTS = ('u', 'command')
@@ -92,15 +97,16 @@ FIELD_MESSAGE_TYPES = TYPE_NAMES
 INPUT_MESSAGE_TYPES = tuple(entry.name for entry in message_types()
                             if entry.vector or entry.commands)
 
-#: Vector topics: name, what the entries are named after, and the nodes that use it.
-TOPIC_ROLES = (
-    ('y', 'output', (PLANT, OBSERVER)), ('u', 'input', (PLANT, OBSERVER)),
-    ('u_cmd', 'input', (PLANT, FEEDBACK)), ('x_hat', 'state', (OBSERVER, FEEDBACK)),
-    ('x_true', 'state', (PLANT,)), ('reference', 'output', (FEEDBACK,)),
-    ('innovation', 'output', (OBSERVER,)),
-    ('x_hat_covariance', 'state pair', (OBSERVER,)),
-    ('innovation_covariance', 'output pair', (OBSERVER,)),
-    ('nis', 'nis', (OBSERVER,)))
+#: Vector topics: name and what the entries are named after, in the schema's order.
+TOPIC_KINDS = (
+    ('y', 'output'), ('u', 'input'), ('u_cmd', 'input'), ('x_hat', 'state'),
+    ('x_true', 'state'), ('reference', 'output'), ('innovation', 'output'),
+    ('x_hat_covariance', 'state pair'), ('innovation_covariance', 'output pair'),
+    ('nis', 'nis'))
+
+#: Vector topics: name, what the entries are named after, and the nodes that use it (those
+#: whose spec subscribes to or publishes it).
+TOPIC_ROLES = tuple((topic, kind, topic_nodes(topic)) for topic, kind in TOPIC_KINDS)
 TOPICS = tuple(topic for topic, _, _ in TOPIC_ROLES)
 
 _OBS, _FB, _PL, _CTL = (OBSERVER,), (FEEDBACK,), (PLANT,), (CONTROLLER,)
@@ -516,8 +522,7 @@ def parameter_table() -> str:
     """Return the parameter schema as the Markdown table README shows."""
     rows = ['| parameter | type | default | range | run-time | nodes | meaning |',
             '|---|---|---|---|---|---|---|']
-    short = {PLANT: 'plant', OBSERVER: 'observer', FEEDBACK: 'feedback',
-             CONTROLLER: 'controller'}
+    short = short_names()
     for spec in PARAMETERS + source_specs(SOURCE_NAME):
         default = json.dumps(spec.default) if not isinstance(spec.default, str) else spec.default
         limits = spec.range_text() or (f'abs <= {number_text(spec.entry_limit)}'

@@ -52,7 +52,6 @@ from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import (
     JointStatesEncoder, MalformedMessage, source_codecs, topic_codec)
 from observer_ros.ros.parameters import ConfiguredNode
-from observer_ros.ros.run import run_node
 
 
 #: How long a node-clock reading serves the clock tolerance check (see ``_clock_for``).
@@ -70,7 +69,7 @@ class ObserverWiring:
     The observer's wiring: one :class:`~observer_ros.core.streaming.EventStream` to topics.
 
     :class:`ObserverNode` builds it in its constructor, the managed variant
-    (:mod:`observer_ros.nodes.observer_lifecycle`) on ``configure``.
+    (made from its spec by :func:`observer_ros.nodes.main.managed_class`) on ``configure``.
     """
 
     def build(self, system) -> None:
@@ -382,8 +381,3 @@ class ObserverNode(ObserverWiring, ConfiguredNode):
     def __init__(self, node_name: str = 'observer', **kwargs) -> None:
         super().__init__(node_name, OBSERVER, **kwargs)
         self.build(self.system)
-
-
-def main(args=None) -> int:
-    """Entry point of ``ros2 run observer_ros observer``."""
-    return run_node(ObserverNode, 'observer', args)

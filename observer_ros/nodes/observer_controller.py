@@ -17,8 +17,8 @@
 
 Each ``y`` (with the applied ``u`` when the plant reports one) goes through the observer's
 event stream (:class:`~observer_ros.nodes.observer.ObserverWiring`) and each estimate it
-gives through the state-feedback law (:class:`~observer_ros.nodes.state_feedback.
-FeedbackCommands`) in the same callback: ``u_cmd`` is published first, then ``x_hat``,
+gives through the node's feedback part (:class:`~observer_ros.nodes.state_feedback.
+FeedbackPart`) in the same callback: ``u_cmd`` is published first, then ``x_hat``,
 ``joint_states_hat``, the innovation, the covariances and NIS, as the observer publishes
 them. No DDS hop between estimate and command, and the same parameters, sections and checks
 as the two nodes (every observer type; reference gain, disturbance rejection, integral
@@ -52,10 +52,9 @@ import numpy as np
 from observer_ros.config import CONTROLLER
 from observer_ros.core.rules import within_limit
 from observer_ros.nodes.observer import ObserverWiring
-from observer_ros.nodes.state_feedback import FeedbackCommands
+from observer_ros.nodes.state_feedback import FeedbackPart
 from observer_ros.ros.diagnostics import monitor
 from observer_ros.ros.parameters import ConfiguredNode
-from observer_ros.ros.run import run_node
 
 
 def _poles_text(poles) -> str:
@@ -65,22 +64,20 @@ def _poles_text(poles) -> str:
     return '[' + ', '.join(texts) + ']'
 
 
-class ObserverControllerWiring(ObserverWiring, FeedbackCommands):
+class ObserverControllerWiring(ObserverWiring):
     """
-    The controller's wiring: the observer's stream and the feedback law in one callback.
+    The controller's wiring: the observer's stream and a feedback part in one callback.
 
     :class:`ObserverControllerNode` builds it in its constructor, the managed variant
-    (:mod:`observer_ros.nodes.observer_controller_lifecycle`) on ``configure``.
+    (made from its spec by :func:`observer_ros.nodes.main.managed_class`) on ``configure``.
     """
 
-    STALE_INPUT = 'estimate'
-
     def build(self, system) -> None:
-        """Make the law and ``u_cmd`` first, then the observer's stream and topics."""
-        self.vet_feedback(system)
+        """Make the feedback part (``u_cmd`` first), then the observer's stream and topics."""
+        self.feedback_part = FeedbackPart(self, stale_input='estimate')
+        self.feedback_part.vet(system)
         self.commands_as_input = system.sections.controller.input_source == 'command'
-        self.build_feedback(system)
-        self.sent = system.feedback.safe_command
+        self.feedback_part.build(system)
         ObserverWiring.build(self, system)
         self.health.watch('reference', monitor(system, 'reference', 0.0, required=False,
                                                rated=False))
@@ -105,38 +102,40 @@ class ObserverControllerWiring(ObserverWiring, FeedbackCommands):
 
     def vet_system(self, system) -> None:
         """Refuse what either node would refuse."""
-        self.vet_feedback(system)
+        FeedbackPart(self).vet(system)
         ObserverWiring.vet_system(self, system)
 
     def apply_system(self, previous, system) -> None:
         """Switch the observer's gains (the estimate kept) and the law's."""
         ObserverWiring.apply_system(self, previous, system)
-        self.apply_feedback(previous, system)
+        self.feedback_part.apply(previous, system)
 
     def counters(self) -> Counter:
         """Stream, observer and command counts together."""
-        return self.stream.counters + self.node_counters + self.command_counters
+        return self.stream.counters + self.node_counters + self.feedback_part.command_counters
 
     def _on_measurement(self, message) -> None:
         stamp, y = self._decode('y', message)
         if y is None:
             return
-        if self.law.integral is not None:
+        feedback = self.feedback_part
+        if feedback.law.integral is not None:
             values = np.asarray(y, dtype=float)
-            if within_limit(values, self.feedback_limits['y']):
-                self.integrate_measurement(stamp, values)
+            if within_limit(values, feedback.feedback_limits['y']):
+                feedback.integrate_measurement(stamp, values)
         if self.commands_as_input and self.stream.estimator.feedthrough is not None:
             # D u needs the input in effect at this stamp: the command sent before, which
             # the plant applies from this sample on; given before the measurement.
-            self._run(self.stream.add_input, stamp, self.sent)
+            self._run(self.stream.add_input, stamp, feedback.sent)
         self._run(self.stream.add_measurement, stamp, y, self._clock_for(stamp),
                   time.monotonic_ns())
 
     def _publish(self, samples) -> None:
+        feedback = self.feedback_part
         applied = []  # (stamp, the command in effect from that sample on)
         for sample in samples:  # u_cmd first: the plant waits for it
-            applied.append((sample.stamp_ns, self.sent))
-            self.sent = self.command_for(sample.stamp_ns, sample.estimate)
+            applied.append((sample.stamp_ns, feedback.sent))
+            feedback.command_for(sample.stamp_ns, sample.estimate)  # the new feedback.sent
         ObserverWiring._publish(self, samples)
         if self.commands_as_input and self.stream.estimator.feedthrough is None:
             # The input of the interval after each estimate, for the next prediction: given
@@ -146,15 +145,10 @@ class ObserverControllerWiring(ObserverWiring, FeedbackCommands):
                 if released:
                     self._publish(released)
 
-    def send_safe_command(self) -> None:
-        """Publish ``feedback.safe_command`` once (it is the input in effect from now on)."""
-        FeedbackCommands.send_safe_command(self)
-        self.sent = self.system.feedback.safe_command
-
     def pause(self) -> None:
         """Deactivation: the estimator restarts; one safe command, then silence."""
         ObserverWiring.pause(self)
-        self.pause_feedback()
+        self.feedback_part.pause()
 
 
 class ObserverControllerNode(ObserverControllerWiring, ConfiguredNode):
@@ -163,8 +157,3 @@ class ObserverControllerNode(ObserverControllerWiring, ConfiguredNode):
     def __init__(self, node_name: str = 'observer_controller', **kwargs) -> None:
         super().__init__(node_name, CONTROLLER, **kwargs)
         self.build(self.system)
-
-
-def main(args=None) -> int:
-    """Entry point of ``ros2 run observer_ros observer_controller``."""
-    return run_node(ObserverControllerNode, 'observer_controller', args)

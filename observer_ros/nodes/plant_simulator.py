@@ -80,7 +80,6 @@ from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import MalformedMessage, ns_to_stamp, VectorCodec
 from observer_ros.ros.parameters import ConfiguredNode
 from observer_ros.ros.qos import publisher_qos
-from observer_ros.ros.run import run_node
 
 #: Wall-clock seconds between two looks for the peers the plant waits for at start.
 START_POLL = 0.02
@@ -348,8 +347,3 @@ class PlantSimulatorNode(ConfiguredNode):
 def plant_done(node: PlantSimulatorNode):
     """Predicate ending the spin when ``plant.samples`` are done (never when it is 0)."""
     return node.finished.done if node.samples else None
-
-
-def main(args=None) -> int:
-    """Entry point of ``ros2 run observer_ros plant_simulator``."""
-    return run_node(PlantSimulatorNode, 'plant_simulator', args, done=plant_done)

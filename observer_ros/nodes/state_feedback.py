@@ -57,7 +57,6 @@ from observer_ros.core.units import NANOSECONDS, seconds_to_ns
 from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import LATEST_STAMP_NS, MalformedMessage, VectorCodec
 from observer_ros.ros.parameters import ConfiguredNode
-from observer_ros.ros.run import run_node
 
 
 def feedback_law(system) -> StateFeedbackLaw:
@@ -85,24 +84,37 @@ def _integral_key(system) -> Optional[tuple]:
             system.model.dt)
 
 
-class FeedbackCommands:
+class FeedbackPart:
     """
-    The state feedback of a node: the law, ``reference``, the watchdog and ``u_cmd``.
+    The feedback part of a node: the law, ``reference``, the watchdog and ``u_cmd``.
 
-    A mixin shared by the state feedback (:class:`StateFeedbackWiring`, which feeds it the
-    ``x_hat`` it subscribes) and the one-process observer-controller
-    (:mod:`observer_ros.nodes.observer_controller`, which feeds it its own estimates):
-    :meth:`build_feedback` makes it, :meth:`command_for` turns an accepted estimate into the
-    published command. Its counts are in :attr:`command_counters`.
+    Held (as ``feedback_part``) by the state feedback (:class:`StateFeedbackWiring`, which
+    feeds it the ``x_hat`` it subscribes) and by the one-process observer-controller
+    (:mod:`observer_ros.nodes.observer_controller`, which feeds it its own estimates). Its
+    verbs: :meth:`vet`, :meth:`build`, :meth:`apply`, :meth:`pause`; per estimate
+    :meth:`command_for` turns it into the published command. It makes its publisher,
+    subscription and timers through its node, so a managed node records them. Its counts
+    are in :attr:`command_counters`; :attr:`sent` is the command in effect (the last
+    published, ``feedback.safe_command`` before any).
+
+    Parameters
+    ----------
+    node : ConfiguredNode or ManagedNode
+        The node it publishes, subscribes, logs and reads its configuration through.
+    stale_input : str
+        What the watchdog waits for, named in its messages (``x_hat``, ``estimate``).
+
     """
 
-    #: What the watchdog waits for (named in its messages).
-    STALE_INPUT = 'x_hat'
+    def __init__(self, node, stale_input: str = 'x_hat') -> None:
+        self.node = node
+        self.stale_input = stale_input
 
-    def build_feedback(self, system) -> None:
+    def build(self, system) -> None:
         """Make the law, the ``u_cmd`` publisher, ``reference`` and the watchdog timers."""
+        node = self.node
         preload_methods()  # no placement method may import a module on a callback path
-        self.vet_feedback(system)
+        self.vet(system)
         self.law = feedback_law(system)
         self.feedback_limits = value_limits(system)
         self.feedback_codecs = {topic: VectorCodec.for_topic(system, topic)
@@ -112,32 +124,33 @@ class FeedbackCommands:
         #: ``time.monotonic_ns()`` when the last accepted estimate arrived (None: none yet).
         self.last_estimate_ns = None
         self.stale = False
-        self.publisher = self.topic_publisher(self.feedback_codecs['u_cmd'].message_class,
+        self.sent = system.feedback.safe_command
+        self.publisher = node.topic_publisher(self.feedback_codecs['u_cmd'].message_class,
                                               'u_cmd')
-        self.topic_subscription(self.feedback_codecs['reference'].message_class, 'reference',
-                                self._on_reference)
+        node.topic_subscription(self.feedback_codecs['reference'].message_class, 'reference',
+                                self.on_reference)
         feedback = system.feedback
         steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self.watchdog = self.create_timer(feedback.timeout, self._on_watchdog, clock=steady,
+        self.watchdog = node.create_timer(feedback.timeout, self._on_watchdog, clock=steady,
                                           autostart=False)
-        self.repeat_timer = self.create_timer(feedback.safe_command_period,
+        self.repeat_timer = node.create_timer(feedback.safe_command_period,
                                               self._publish_safe_command, clock=steady,
                                               autostart=False)
-        self.get_logger().info(f'K = {feedback.design.gain.tolist()}')
+        node.get_logger().info(f'K = {feedback.design.gain.tolist()}')
         if feedback.disturbance_gain is not None and feedback.disturbance_gain.any():
-            self.get_logger().info(f'K_d = {feedback.disturbance_gain.tolist()} (disturbance '
+            node.get_logger().info(f'K_d = {feedback.disturbance_gain.tolist()} (disturbance '
                                    f'rejection)')
 
-    def vet_feedback(self, system) -> None:
+    def vet(self, system) -> None:
         """Refuse configurations without a feedback gain."""
         if system.model.n_inputs == 0:
-            raise ConfigError('model.B', f'the {self.role} node needs a model with inputs; '
+            raise ConfigError('model.B', f'the {self.node.role} node needs a model with inputs; '
                               f'model.B is empty (m = 0)')
         if system.feedback is None:
-            raise ConfigError('feedback.gain', f'the {self.role} node needs feedback.gain '
+            raise ConfigError('feedback.gain', f'the {self.node.role} node needs feedback.gain '
                               f'or feedback.poles')
 
-    def apply_feedback(self, previous, system) -> None:
+    def apply(self, previous, system) -> None:
         """Use the new gains, limits and timing from now on."""
         old_integral = self.law.integral
         self.law = feedback_law(system)
@@ -159,26 +172,27 @@ class FeedbackCommands:
             stamp, vector = self.feedback_codecs[topic].decode(message)
         except MalformedMessage as e:
             self.command_counters['malformed'] += 1
-            self.warn_once(f'malformed {topic}', f'dropped a malformed message: {e}')
+            self.node.warn_once(f'malformed {topic}', f'dropped a malformed message: {e}')
             return None, None
-        self.health.tick(topic, stamp)
+        self.node.health.tick(topic, stamp)
         limit = self.feedback_limits[topic]
         if not within_limit(vector, limit):
             self.command_counters['out_of_range'] += 1
-            self.warn_once(f'{topic} out of range',
-                           f'dropped {topic} {vector.tolist()}: a value exceeds '
-                           f'topics.{topic}.limit = {limit:g} in magnitude')
+            self.node.warn_once(f'{topic} out of range',
+                                f'dropped {topic} {vector.tolist()}: a value exceeds '
+                                f'topics.{topic}.limit = {limit:g} in magnitude')
             return None, None
         return stamp, vector
 
-    def _on_reference(self, message) -> None:
+    def on_reference(self, message) -> None:
+        """Take a ``reference`` (dropped and counted when malformed or out of range)."""
         _, reference = self.decode_checked('reference', message)
         if reference is None:
             return
         if self.law.reference_gain is None and self.law.integral is None:
-            self.warn_once('no reference gain', 'reference ignored: no reference gain (the '
-                           'plant is not square or has a zero at DC; set '
-                           'feedback.reference_gain)')
+            self.node.warn_once('no reference gain', 'reference ignored: no reference gain (the '
+                                'plant is not square or has a zero at DC; set '
+                                'feedback.reference_gain)')
         self.reference = reference
 
     def command_for(self, stamp: int, estimate) -> np.ndarray:
@@ -193,20 +207,22 @@ class FeedbackCommands:
         computed = command = self.law.command(estimate, self.reference, stamp)
         unsafe = not within_limit(command, self.feedback_limits['u_cmd'])
         if unsafe:
-            command = self.system.feedback.safe_command
+            command = self.node.system.feedback.safe_command
         self.publisher.publish(self.feedback_codecs['u_cmd'].encode(stamp, command))
         # The bookkeeping after the command is out (nothing runs in between).
         self.watchdog.reset()
         if self.stale:
             self.stale = False
             self.repeat_timer.cancel()
-            self.get_logger().info(f'{self.STALE_INPUT} is back: state feedback resumed')
+            self.node.get_logger().info(f'{self.stale_input} is back: state feedback resumed')
         if unsafe:
             self.command_counters['unsafe_command'] += 1
-            self.warn_once('unsafe command', f'the command {computed.tolist()} is non-finite or '
-                           f'beyond topics.u_cmd.limit = {self.feedback_limits["u_cmd"]:g}: '
-                           f'published feedback.safe_command instead')
+            self.node.warn_once('unsafe command', f'the command {computed.tolist()} is '
+                                f'non-finite or beyond topics.u_cmd.limit = '
+                                f'{self.feedback_limits["u_cmd"]:g}: published '
+                                f'feedback.safe_command instead')
         self.command_counters['commands'] += 1
+        self.sent = command
         return command
 
     def integrate_measurement(self, stamp, y) -> None:
@@ -216,10 +232,10 @@ class FeedbackCommands:
 
     def _now_stamp(self) -> int:
         """Return the node clock as a stamp: 0 (unstamped) beyond what a stamp holds."""
-        now = self.get_clock().now().nanoseconds
+        now = self.node.get_clock().now().nanoseconds
         if now > LATEST_STAMP_NS:
-            self.warn_once('clock beyond stamps', f'the node clock ({now} ns) lies beyond '
-                           f'builtin_interfaces/Time: commands are stamped 0')
+            self.node.warn_once('clock beyond stamps', f'the node clock ({now} ns) lies beyond '
+                                f'builtin_interfaces/Time: commands are stamped 0')
             return 0
         return now
 
@@ -227,7 +243,7 @@ class FeedbackCommands:
         if self.stale or self.last_estimate_ns is None:
             self.watchdog.cancel()
             return
-        timeout = self.system.feedback.timeout
+        timeout = self.node.system.feedback.timeout
         waited = time.monotonic_ns() - self.last_estimate_ns
         if waited < seconds_to_ns(timeout):
             return  # an estimate re-armed the timer after this call was due
@@ -236,11 +252,11 @@ class FeedbackCommands:
         self.command_counters['stale'] += 1
         self._publish_safe_command()  # first: the log write must not delay it
         self.repeat_timer.reset()
-        self.get_logger().warning(
-            f'no {self.STALE_INPUT} for {waited / NANOSECONDS:.3f} s (feedback.timeout = '
+        self.node.get_logger().warning(
+            f'no {self.stale_input} for {waited / NANOSECONDS:.3f} s (feedback.timeout = '
             f'{timeout} s, steady clock): publishing the safe command '
-            f'{self.system.feedback.safe_command.tolist()} every '
-            f'feedback.safe_command_period = {self.system.feedback.safe_command_period} s')
+            f'{self.node.system.feedback.safe_command.tolist()} every '
+            f'feedback.safe_command_period = {self.node.system.feedback.safe_command_period} s')
 
     def _publish_safe_command(self) -> None:
         if not self.stale:
@@ -251,10 +267,12 @@ class FeedbackCommands:
     def send_safe_command(self) -> None:
         """Publish ``feedback.safe_command`` once, stamped with the node clock (counted)."""
         self.command_counters['safe_commands'] += 1
-        self.publisher.publish(self.feedback_codecs['u_cmd'].encode(
-            self._now_stamp(), self.system.feedback.safe_command))
+        safe_command = self.node.system.feedback.safe_command
+        self.publisher.publish(self.feedback_codecs['u_cmd'].encode(self._now_stamp(),
+                                                                    safe_command))
+        self.sent = safe_command  # the input in effect from now on
 
-    def pause_feedback(self) -> None:
+    def pause(self) -> None:
         """Deactivation: one safe command, then silence; the watchdog re-arms on activation."""
         self.send_safe_command()
         self.watchdog.cancel()
@@ -263,68 +281,72 @@ class FeedbackCommands:
         self.last_estimate_ns = None
 
 
-class StateFeedbackWiring(FeedbackCommands):
+class StateFeedbackWiring:
     """
-    The state feedback's wiring: the law between ``x_hat``, ``reference`` and ``u_cmd``.
+    The state feedback's wiring: its feedback part between ``x_hat``, ``reference``, ``u_cmd``.
 
-    A mixin: :class:`StateFeedbackNode` builds it in its constructor, the managed variant
-    (:mod:`observer_ros.nodes.state_feedback_lifecycle`) on ``configure``.
+    :class:`StateFeedbackNode` builds it in its constructor, the managed variant
+    (made from its spec by :func:`observer_ros.nodes.main.managed_class`) on ``configure``.
     """
 
     def build(self, system) -> None:
-        """Make the law, the publisher, the subscriptions and the watchdog timers."""
-        self.build_feedback(system)
+        """Make the feedback part (law, publisher, reference, watchdog), ``x_hat`` and health."""
+        self.feedback_part = part = FeedbackPart(self)
+        part.build(system)
         feedback = system.feedback
         self.health = NodeHealth(
             self, {'x_hat': monitor(system, 'x_hat', feedback.timeout, minimum_only=True),
                    'reference': monitor(system, 'reference', 0.0, required=False,
                                         rated=False)},
-            lambda: self.command_counters)
+            lambda: part.command_counters)
         self.diagnostics = self.health.publisher
-        self.topic_subscription(self.feedback_codecs['x_hat'].message_class, 'x_hat',
+        self.topic_subscription(part.feedback_codecs['x_hat'].message_class, 'x_hat',
                                 self._on_estimate)
         self.measurement_subscription = None
         self._subscribe_measurements(system)
 
     @property
     def counters(self) -> Counter:
-        """The node's counts (:attr:`command_counters`)."""
-        return self.command_counters
+        """The node's counts (the feedback part's ``command_counters``)."""
+        return self.feedback_part.command_counters
 
     @property
     def codecs(self) -> dict:
         """The codecs of the node's topics."""
-        return self.feedback_codecs
+        return self.feedback_part.feedback_codecs
 
     def _subscribe_measurements(self, system) -> None:
         """Subscribe ``y`` once integral action needs it."""
         if system.feedback.integral is not None and self.measurement_subscription is None:
             self.health.watch('y', monitor(system, 'y', 0.0, minimum_only=True))
             self.measurement_subscription = self.topic_subscription(
-                self.feedback_codecs['y'].message_class, 'y', self._on_measurement)
+                self.feedback_part.feedback_codecs['y'].message_class, 'y',
+                self._on_measurement)
 
     def vet_system(self, system) -> None:
         """Refuse configurations without a feedback gain."""
-        self.vet_feedback(system)
+        FeedbackPart(self).vet(system)
 
     def apply_system(self, previous, system) -> None:
         """Use the new gains, limits and timing from now on."""
-        self.apply_feedback(previous, system)
+        self.feedback_part.apply(previous, system)
         self._subscribe_measurements(system)
 
     def _on_estimate(self, message) -> None:
-        stamp, estimate = self.decode_checked('x_hat', message)
+        part = self.feedback_part
+        stamp, estimate = part.decode_checked('x_hat', message)
         if estimate is not None:
-            self.command_for(stamp, estimate)
+            part.command_for(stamp, estimate)
 
     def _on_measurement(self, message) -> None:
-        stamp, y = self.decode_checked('y', message)
+        part = self.feedback_part
+        stamp, y = part.decode_checked('y', message)
         if y is not None:
-            self.integrate_measurement(stamp, y)
+            part.integrate_measurement(stamp, y)
 
     def pause(self) -> None:
         """Deactivation: one safe command, then silence; the watchdog re-arms on activation."""
-        self.pause_feedback()
+        self.feedback_part.pause()
 
 
 class StateFeedbackNode(StateFeedbackWiring, ConfiguredNode):
@@ -333,8 +355,3 @@ class StateFeedbackNode(StateFeedbackWiring, ConfiguredNode):
     def __init__(self, node_name: str = 'state_feedback', **kwargs) -> None:
         super().__init__(node_name, FEEDBACK, **kwargs)
         self.build(self.system)
-
-
-def main(args=None) -> int:
-    """Entry point of ``ros2 run observer_ros state_feedback``."""
-    return run_node(StateFeedbackNode, 'state_feedback', args)

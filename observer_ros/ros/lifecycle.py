@@ -27,8 +27,9 @@ node's wiring (the same ``build`` the plain node runs in its constructor) is mad
   (``/diagnostics`` is published from ``configure`` on).
 - ``deactivate`` calls the wiring's ``pause`` while the output is still enabled (the
   feedback node publishes its safe command once there), then disables the output.
-- ``cleanup`` destroys every publisher, subscription, timer, service and client that
-  ``configure`` made and drops every attribute it set, so a later ``configure`` starts from
+- ``cleanup`` destroys, by name, every publisher, subscription, timer, service and client
+  that ``configure`` made (:attr:`ManagedNode.made`, recorded as they are created) and drops
+  every attribute it set, so a later ``configure`` starts from
   the parameters as they are then; ``shutdown`` does the same from any state.
 
 While unconfigured every parameter may be set (types are checked, configure validates);
@@ -48,11 +49,10 @@ from observer_ros.config import Configuration, ParameterSpec, validate_parameter
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.ros.parameters import SchemaParameters
 
-#: The node's entities a configure may create (by the node attribute listing them) and the
-#: node method that destroys each.
-ENTITY_LISTS = (('publishers', 'destroy_publisher'),
-                ('subscriptions', 'destroy_subscription'), ('timers', 'destroy_timer'),
-                ('services', 'destroy_service'), ('clients', 'destroy_client'))
+#: The node method that destroys each kind of entity a configure may create.
+DESTROYERS = {'publisher': 'destroy_publisher', 'subscription': 'destroy_subscription',
+              'timer': 'destroy_timer', 'service': 'destroy_service',
+              'client': 'destroy_client'}
 
 
 class ManagedNode(SchemaParameters, LifecycleNode):
@@ -73,7 +73,12 @@ class ManagedNode(SchemaParameters, LifecycleNode):
         #: Messages that arrived on a subscription while the node was not active.
         self.dropped_while_inactive = 0
         self.configure_error: Optional[str] = None
-        self._built: Optional[dict] = None
+        #: What the running configure made: ``{name: entity}`` (``publisher x_hat``,
+        #: ``timer _on_watchdog``), None outside configure and once released.
+        self.made: Optional[dict] = None
+        #: The attributes configure added, by name (recorded while it runs).
+        self.made_attributes: Optional[set] = None
+        self._making = False
         self._refuse_unknown_transitions()
         if self.get_parameter('autostart').value:
             if self.trigger_configure() == TransitionCallbackReturn.SUCCESS:
@@ -143,7 +148,8 @@ class ManagedNode(SchemaParameters, LifecycleNode):
 
     def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
         """Validate the parameters, design and build the wiring; fail with the reason."""
-        before, attributes = self._entities(), set(vars(self))
+        self.made, self.made_attributes = {}, set()
+        self._making = True
         error = None
         try:
             self.system = validate_parameters(self.current_parameters(), node=self.role)
@@ -154,7 +160,7 @@ class ManagedNode(SchemaParameters, LifecycleNode):
             self.get_logger().error(f'configure raised {type(e).__name__}: {e}')
             raise
         finally:
-            self._built = self._created(before, attributes)  # on_error releases it too
+            self._making = False  # on_error releases what was made too
         if error is not None:
             self._release()
             self.configure_error = str(error)
@@ -205,27 +211,63 @@ class ManagedNode(SchemaParameters, LifecycleNode):
 
     # --- what configure made ---------------------------------------------------------------
 
-    def _entities(self) -> dict:
-        return {listing: set(getattr(self, listing)) for listing, _ in ENTITY_LISTS}
+    def __setattr__(self, name: str, value) -> None:
+        """Set the attribute; while configuring, record a new one's name (cleanup drops it)."""
+        if self.__dict__.get('_making') and name not in self.__dict__:
+            self.made_attributes.add(name)
+        object.__setattr__(self, name, value)
 
-    def _created(self, before: dict, attributes: set) -> dict:
-        after = self._entities()
-        created = {listing: after[listing] - before[listing] for listing, _ in ENTITY_LISTS}
-        created['attributes'] = set(vars(self)) - attributes
-        return created
+    def _register(self, kind: str, name: str, entity):
+        """Record an entity configure made under ``<kind> <name>`` and return it."""
+        if self.__dict__.get('_making'):
+            key, count = f'{kind} {name}', 1
+            while key in self.made:
+                count += 1
+                key = f'{kind} {name} #{count}'
+            self.made[key] = entity
+        return entity
+
+    def create_publisher(self, msg_type, topic: str, *args, **kwargs):
+        """Create a publisher, recorded while configuring."""
+        return self._register('publisher', topic,
+                              super().create_publisher(msg_type, topic, *args, **kwargs))
+
+    def create_lifecycle_publisher(self, msg_type, topic: str, *args, **kwargs):
+        """Create a lifecycle publisher, recorded while configuring."""
+        return self._register('publisher', topic, super().create_lifecycle_publisher(
+            msg_type, topic, *args, **kwargs))
+
+    def create_subscription(self, msg_type, topic: str, *args, **kwargs):
+        """Create a subscription, recorded while configuring."""
+        return self._register('subscription', topic,
+                              super().create_subscription(msg_type, topic, *args, **kwargs))
+
+    def create_timer(self, timer_period_sec: float, callback, *args, **kwargs):
+        """Create a timer, recorded by its callback's name while configuring."""
+        name = getattr(callback, '__name__', type(callback).__name__)
+        return self._register('timer', name, super().create_timer(
+            timer_period_sec, callback, *args, **kwargs))
+
+    def create_service(self, srv_type, srv_name: str, *args, **kwargs):
+        """Create a service, recorded while configuring."""
+        return self._register('service', srv_name,
+                              super().create_service(srv_type, srv_name, *args, **kwargs))
+
+    def create_client(self, srv_type, srv_name: str, *args, **kwargs):
+        """Create a client, recorded while configuring."""
+        return self._register('client', srv_name,
+                              super().create_client(srv_type, srv_name, *args, **kwargs))
 
     def _release(self) -> None:
-        """Destroy the entities configure made and drop the attributes it set."""
-        built, self._built = self._built, None
+        """Destroy, by name, the entities configure made and drop the attributes it set."""
+        made, attributes = self.made, self.made_attributes
+        self.made = self.made_attributes = None
         self.system = self._pending = None
         self.active = False
-        if built is None:
-            return
-        for listing, destroy in ENTITY_LISTS:
-            for entity in built[listing]:
-                if isinstance(entity, LifecyclePublisher):
-                    self.destroy_lifecycle_publisher(entity)
-                else:
-                    getattr(self, destroy)(entity)
-        for name in built['attributes']:
+        for name, entity in (made or {}).items():
+            if isinstance(entity, LifecyclePublisher):
+                self.destroy_lifecycle_publisher(entity)
+            else:
+                getattr(self, DESTROYERS[name.split()[0]])(entity)
+        for name in attributes or ():
             vars(self).pop(name, None)
