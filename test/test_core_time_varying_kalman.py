@@ -243,3 +243,49 @@ def test_a_steady_kalman_design_reports_its_innovation_covariance_and_nis():
     expected = float(last.innovation @ np.linalg.solve(last.innovation_covariance,
                                                        last.innovation))
     assert last.nis == pytest.approx(expected, rel=1e-12)
+
+
+def test_jittered_intervals_are_composed_from_a_few_exact_samplings(monkeypatch):
+    # Log-time stamps make every interval new: one expm pair each cost 20x the filter on a
+    # real bag (issue 29). The filter samples exactly once and composes the rest.
+    import observer_ros.core.discretize as discretize
+    calls = []
+    real = discretize.zero_order_hold
+    monkeypatch.setattr(discretize, 'zero_order_hold',
+                        lambda *args: calls.append(args[2]) or real(*args))
+    rng = np.random.default_rng(29)
+    stamps = jittered_stamps(500, rng, levels=None)
+    ys, us, _ = simulate(MODEL, stamps, Q, R, 29)
+    kf = TimeVaryingKalman(MODEL, Q, R)
+    for k, stamp in enumerate(stamps):
+        kf.update(int(stamp), ys[k], us[k - 1] if k else np.zeros(1))
+    assert len(np.unique(np.diff(stamps))) > 400
+    assert len(calls) <= 2, len(calls)
+
+
+@pytest.mark.parametrize('seed', range(6))
+def test_a_composed_interval_equals_expm_within_a_few_ulps(seed):
+    from observer_ros.core.discretize import IntervalSampler, transition
+    rng = np.random.default_rng(seed)
+    n, m = 2 + seed % 4, 1 + seed % 2
+    a = rng.standard_normal((n, n)) * 3.0
+    root = rng.standard_normal((n, n))
+    q = root @ root.T
+    b = rng.standard_normal((n, m))
+    model = StateSpaceModel.from_matrices(a, b, np.eye(1, n))
+    sampler = IntervalSampler(a, b, q)
+    first = sampler.sample(PERIOD_NS)
+    exact = transition(model, PERIOD_NS / 1e9, q)
+    for got, want in zip(first, exact):  # the anchor is expm's, bit for bit
+        assert got.tobytes() == want.tobytes()
+    for dt_ns in (1, 1_000, PERIOD_NS - 3_000, PERIOD_NS + 7, PERIOD_NS + 2_345_678,
+                  3 * PERIOD_NS // 2, 5_000_000):
+        got = sampler.sample(dt_ns)
+        want = transition(model, dt_ns / 1e9, q)
+        for name, g, w in zip(('Ad', 'Bd', 'Qd'), got, want):
+            scale = np.abs(w).max()
+            assert np.abs(g - w).max() <= 64 * np.finfo(float).eps * scale, (dt_ns, name)
+    assert sampler.anchors() == [PERIOD_NS]
+    far = sampler.sample(40 * PERIOD_NS)  # beyond the series' reach: sampled exactly
+    assert far[0].tobytes() == transition(model, 0.4, q)[0].tobytes()
+    assert sampler.anchors() == [PERIOD_NS, 40 * PERIOD_NS]

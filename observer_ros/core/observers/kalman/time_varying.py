@@ -44,14 +44,13 @@ from typing import Optional
 import numpy as np
 
 from observer_ros.core.analysis import require_seen
-from observer_ros.core.discretize import transition
+from observer_ros.core.discretize import IntervalSampler
 from observer_ros.core.errors import ConfigError, StampError
 from observer_ros.core.estimators.intervals import IntervalCache, IntervalDesigns
 from observer_ros.core.estimators.protocol import (
     Estimator, model_feedthrough, PinnedInitialState, Prediction, SubsetUpdates)
 from observer_ros.core.flat_matrices import covariance_from_flat
 from observer_ros.core.model import StateSpaceModel
-from observer_ros.core.units import NANOSECONDS
 
 
 def parse_initial_covariance(values, n_states: int) -> np.ndarray:
@@ -134,6 +133,7 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
         self.initial_covariance = parse_initial_covariance(initial_covariance, n)
         self._pinned = None
         self.initial_state = initial_state
+        self._sampler = self._new_sampler()
         self.intervals = IntervalCache(self._sample, resolution_ns=interval_resolution_ns,
                                        constant=model.dt > 0.0)
         self._identity = np.eye(n)
@@ -193,11 +193,26 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
 
     # --- the filter ----------------------------------------------------------------------
 
-    def _sample(self, key_ns: int) -> tuple:
-        """``(Ad, Bd, Qd)`` of an interval: a discrete model's own (key 0), else sampled."""
+    def _new_sampler(self) -> Optional[IntervalSampler]:
         if self.model.dt > 0.0:
+            return None
+        return IntervalSampler(self.model.a, self.model.b, self.process_noise)
+
+    def _sample(self, key_ns: int) -> tuple:
+        """
+        ``(Ad, Bd, Qd)`` of an interval: a discrete model's own (key 0), else sampled.
+
+        A continuous model is sampled exactly (``expm``) at its first interval and at one
+        far from those sampled so far; an interval near one of them is composed from it
+        (:class:`~observer_ros.core.discretize.IntervalSampler`: equal within a few units
+        in the last place, and no ``expm`` per jittered interval).
+        """
+        if self._sampler is None:
             return self.model.a, self.model.b, self.process_noise
-        return transition(self.model, key_ns / NANOSECONDS, self.process_noise)
+        return self._sampler.sample(key_ns)
+
+    def _forget_intervals(self) -> None:
+        self._sampler = self._new_sampler()
 
     def _measure(self, x_prior: np.ndarray, p_prior: np.ndarray, y: np.ndarray,
                  rows: Optional[tuple] = None) -> None:
@@ -404,5 +419,6 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
         self._c_row, self._r_value = other._c_row, other._r_value
         self._subsets = {}
         self.initial_covariance = other.initial_covariance
+        self._sampler = self._new_sampler()
         self.intervals.clear(recent=False)
         self.interval_resolution_ns = other.interval_resolution_ns
