@@ -42,6 +42,7 @@ R. S. Bucy and P. D. Joseph, Filtering for Stochastic Processes, 1968 (the Josep
 from typing import Optional
 
 import numpy as np
+from scipy.linalg.lapack import dpotrf, dpotrs
 
 from observer_ros.core.analysis import require_seen
 from observer_ros.core.discretize import IntervalSampler
@@ -139,6 +140,7 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
         self._identity = np.eye(n)
         self._c_row = self.model.c[0].copy() if self.n_outputs == 1 else None
         self._r_value = float(self.measurement_noise[0, 0])
+        self._rhs = np.empty((self.n_outputs, n + 1), order='F')
         self._subsets: dict = {}
         self.reset()
 
@@ -218,10 +220,10 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
                  rows: Optional[tuple] = None) -> None:
         """Update ``(x-, P-)`` with ``y``: every output, or the ``rows`` of :meth:`_rows`."""
         if rows is None:
-            c, r, c_row, r_value = (self.model.c, self.measurement_noise, self._c_row,
-                                    self._r_value)
+            c, r, c_row, r_value, rhs = (self.model.c, self.measurement_noise, self._c_row,
+                                         self._r_value, self._rhs)
         else:
-            c, r, c_row, r_value = rows
+            c, r, c_row, r_value, rhs = rows
         if c_row is not None:
             self._measure_one(x_prior, p_prior, y, c_row, r_value)
             return
@@ -232,10 +234,20 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
         s = c @ pc + r
         innovation = y - c @ x_prior
         s = 0.5 * (s + s.T)
-        factor = np.linalg.cholesky(s)
-        k = np.linalg.solve(factor.T, np.linalg.solve(factor, pc.T)).T  # P- C^T S^-1
-        whitened = np.linalg.solve(factor, innovation)
-        nis = whitened @ whitened
+        # LAPACK directly (numpy's linalg wrappers cost several times the call on p x p):
+        # S = L L^T once, then S^-1 [P- C^T | v] in one solve: K^T and S^-1 v for the NIS.
+        factor, info = dpotrf(s, lower=1, clean=0)
+        if info:
+            raise np.linalg.LinAlgError(
+                f'the innovation covariance S = C P- C^T + R is not positive definite '
+                f'(dpotrf info {info})')
+        n_states = self.n_states
+        right = rhs if rhs is not None else np.empty((len(c), n_states + 1), order='F')
+        right[:, :n_states] = pc.T
+        right[:, n_states] = innovation
+        solved, info = dpotrs(factor, right, lower=1)
+        k = solved[:, :n_states].T  # P- C^T S^-1
+        nis = innovation @ solved[:, n_states]
         noise = k @ r @ k.T
         # Joseph form (I - K C) P- (I - K C)^T + K R K^T, its products taken as rank-p
         # updates: (I - K C) P- = P- - K (P- C^T)^T, then M (I - K C)^T = M - (M C^T) K^T.
@@ -276,14 +288,19 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
         self._nis, self._one = 0.0, None
 
     def _rows(self, outputs: tuple) -> tuple:
-        """``(C_s, R_s, c_row, r_value)`` of some outputs (cached): the rows of C and R."""
+        """
+        ``(C_s, R_s, c_row, r_value, rhs)`` of some outputs (cached): the rows of C and R.
+
+        ``rhs``: the work array of the solve, ``(p_s, n + 1)`` Fortran-ordered.
+        """
         rows = self._subsets.get(outputs)
         if rows is None:
             index = list(outputs)
             c = np.ascontiguousarray(self.model.c[index])
             r = np.ascontiguousarray(self.measurement_noise[np.ix_(index, index)])
             one = len(index) == 1
-            rows = (c, r, c[0].copy() if one else None, float(r[0, 0]) if one else 0.0)
+            rows = (c, r, c[0].copy() if one else None, float(r[0, 0]) if one else 0.0,
+                    np.empty((len(index), self.n_states + 1), order='F'))
             self._subsets[outputs] = rows
         return rows
 
@@ -417,6 +434,7 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
         self.feedthrough = other.feedthrough
         self.process_noise, self.measurement_noise = other.process_noise, other.measurement_noise
         self._c_row, self._r_value = other._c_row, other._r_value
+        self._rhs = np.empty_like(other._rhs, order='F')
         self._subsets = {}
         self.initial_covariance = other.initial_covariance
         self._sampler = self._new_sampler()
