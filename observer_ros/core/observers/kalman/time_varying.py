@@ -230,32 +230,35 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
         if not len(c):
             self._predict_only(x_prior, p_prior)
             return
-        pc = p_prior @ c.T
-        s = c @ pc + r
+        n_states = self.n_states
+        right = rhs if rhs is not None else np.empty((len(c), n_states + 1), order='F')
+        cp = right[:, :n_states]
+        np.matmul(c, p_prior, out=cp)  # C P- = (P- C^T)^T
         innovation = y - c @ x_prior
-        s = 0.5 * (s + s.T)
+        right[:, n_states] = innovation
+        s = cp @ c.T
+        s += r
         # LAPACK directly (numpy's linalg wrappers cost several times the call on p x p):
-        # S = L L^T once, then S^-1 [P- C^T | v] in one solve: K^T and S^-1 v for the NIS.
+        # S = L L^T (its lower triangle read), then S^-1 [C P- | v] in one solve: K^T and
+        # S^-1 v for the NIS.
         factor, info = dpotrf(s, lower=1, clean=0)
         if info:
             raise np.linalg.LinAlgError(
                 f'the innovation covariance S = C P- C^T + R is not positive definite '
                 f'(dpotrf info {info})')
-        n_states = self.n_states
-        right = rhs if rhs is not None else np.empty((len(c), n_states + 1), order='F')
-        right[:, :n_states] = pc.T
-        right[:, n_states] = innovation
         solved, info = dpotrs(factor, right, lower=1)
-        k = solved[:, :n_states].T  # P- C^T S^-1
+        k_t = solved[:, :n_states]
+        k = k_t.T  # P- C^T S^-1
         nis = innovation @ solved[:, n_states]
-        noise = k @ r @ k.T
-        # Joseph form (I - K C) P- (I - K C)^T + K R K^T, its products taken as rank-p
-        # updates: (I - K C) P- = P- - K (P- C^T)^T, then M (I - K C)^T = M - (M C^T) K^T.
-        left = p_prior - k @ pc.T
-        p = left - (left @ c.T) @ k.T + noise
-        self._x = x_prior + k @ innovation
+        # Joseph form, as in _measure_one: left = (I - K C) P-, then left (I - K C)^T
+        # + K R K^T = left - (left C^T - K R) K^T.
+        left = p_prior - k @ cp
+        p = left - (left @ c.T - k @ r) @ k_t
         p += p.T
         p *= 0.5
+        s += s.T
+        s *= 0.5
+        self._x = x_prior + k @ innovation
         self._p = p
         self._innovation, self._s, self._k, self._nis = innovation, s, k, float(nis)
         self._one = None
