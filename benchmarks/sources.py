@@ -171,8 +171,10 @@ def run(smoke: bool, figures) -> Section:
     """Measure and return the section."""
     seconds = 0.2 if smoke else 3.0
     section = Section(9, 'Several sources and late measurements',
-                      'a 30 Hz source 50 ms late at a 1 kHz base rate keeps up in real time '
-                      'on one core (time-varying Kalman filter, 0.5 s history)')
+                      'a 30 Hz source 400 ms late at a 1 kHz base rate keeps up in real time '
+                      'on one core (time-varying Kalman filter, 0.5 s history); an update '
+                      'with sources at most 1.5x the bare filter, a re-run row at most 0.8x '
+                      'a fresh update (wall time)')
     rows = []
     kind = 'time-varying Kalman'
     for sources, history in ((1, 0), (1, 500 * MS), (2, 500 * MS), (4, 500 * MS)):
@@ -195,7 +197,7 @@ def run(smoke: bool, figures) -> Section:
                                                sources=(ENCODERS, CAMERA), history_ns=500 * MS)
             counters = stream.counters
             factor = total / seconds
-            if late == 50 * MS and kind == 'time-varying Kalman':
+            if late == 400 * MS and kind == 'time-varying Kalman':
                 met = factor < 1.0
             rows.append([kind, f'{late / MS:.0f} ms', f'{counters["reruns"]}',
                          f'{counters["rerun_rows"] / max(1, counters["reruns"]):.0f}',
@@ -211,6 +213,8 @@ def run(smoke: bool, figures) -> Section:
     for name, clock in (('wall', time.perf_counter), ('CPU of the thread', time.thread_time)):
         share = engine_share(seconds, clock)
         bare, fresh, row = share['bare'], share['fresh'], share['rerun_row']
+        if clock is time.perf_counter:
+            met = met and fresh <= 1.5 * bare and row <= 0.8 * fresh
         rows.append([name, f'{bare * 1e6:.1f} us', f'{fresh * 1e6:.1f} us',
                      f'**{fresh / bare:.2f}x**', f'{row * 1e6:.1f} us',
                      f'**{row / fresh:.2f}x**', f'{share["factor"]:.2f}'])
