@@ -285,10 +285,21 @@ def test_a_composed_interval_equals_expm_within_a_few_ulps(seed):
         for name, g, w in zip(('Ad', 'Bd', 'Qd'), got, want):
             scale = np.abs(w).max()
             assert np.abs(g - w).max() <= 64 * np.finfo(float).eps * scale, (dt_ns, name)
-    assert sampler.anchors() == [PERIOD_NS]
-    far = sampler.sample(40 * PERIOD_NS)  # beyond the series' reach: sampled exactly
-    assert far[0].tobytes() == transition(model, 0.4, q)[0].tobytes()
-    assert sampler.anchors() == [PERIOD_NS, 40 * PERIOD_NS]
+    # Beyond one grid_ns: composed from a multiple of it, sampled exactly once.
+    far = 3 * sampler.grid_ns + 12_345
+    got, want = sampler.sample(far), transition(model, far / 1e9, q)
+    for g, w in zip(got, want):
+        assert np.abs(g - w).max() <= 64 * np.finfo(float).eps * np.abs(w).max()
+    assert 3 * sampler.grid_ns in sampler.anchors()
+    # The order the intervals come in changes nothing (a history re-run's numbers are
+    # those of a run in stamp order): only the first interval is special.
+    intervals = [PERIOD_NS + 7, 1_000, far, 5_000_000, 3 * sampler.grid_ns + 5]
+    other = IntervalSampler(a, b, q)
+    other.sample(PERIOD_NS)
+    backwards = {dt_ns: other.sample(dt_ns) for dt_ns in intervals[::-1]}
+    for dt_ns in intervals:
+        for g, w in zip(sampler.sample(dt_ns), backwards[dt_ns]):
+            assert g.tobytes() == w.tobytes(), dt_ns
 
 
 def _textbook_update(p_prior, x_prior, c, r, y):

@@ -14,7 +14,6 @@
 
 """Exact sampling of continuous-time models: zero-order hold and Van Loan's method."""
 
-import bisect
 import math
 from typing import Optional
 
@@ -180,14 +179,14 @@ def transition(model, dt: float, process_noise: Optional[np.ndarray] = None) -> 
     return ad, bd, qd
 
 
-#: A new interval within ``SERIES_REACH / alpha`` seconds above an interval sampled with
-#: ``expm`` (``alpha = max(||A||_1, ||A||_inf)``) is composed from it (:class:`IntervalSampler`).
+#: Intervals are composed from multiples of ``SERIES_REACH / alpha`` seconds sampled with
+#: ``expm`` (``alpha = max(||A||_1, ||A||_inf)``; :class:`IntervalSampler`).
 SERIES_REACH = 0.5
 
 #: Truncation of the series of a step, relative to its leading term (eps / 8).
 SERIES_TOLERANCE = 2.0 ** -55
 
-#: Intervals sampled with ``expm`` that later intervals are composed from (the newest kept).
+#: Multiples sampled with ``expm`` that are kept (the oldest made again when needed).
 MAX_ANCHORS = 32
 
 
@@ -209,19 +208,20 @@ class IntervalSampler:
     """
     ``(Ad, Bd, Qd)`` of a continuous model over intervals that jitter, without an ``expm`` each.
 
-    The first interval, and one more than ``SERIES_REACH / alpha`` above every interval
-    sampled so far, is sampled exactly (:func:`zero_order_hold`, :func:`van_loan`: ``expm``)
-    and becomes an anchor. Another interval ``t = t0 + delta`` is composed from the
-    largest anchor ``t0 <= t`` (or from nothing, ``t0 = 0``) and the step over ``delta``:
+    The first interval is sampled exactly (:func:`zero_order_hold`, :func:`van_loan`:
+    ``expm``) and kept for itself. Another interval ``t = t0 + delta`` is composed from the
+    largest multiple ``t0 <= t`` of ``grid_ns = SERIES_REACH / alpha`` (sampled exactly,
+    once; none, ``t0 = 0``, below one ``grid_ns``) and the step over ``delta``:
     ``Ad(t) = Ad(delta) Ad(t0)``, ``Bd(t) = Bd(delta) + Ad(delta) Bd(t0)``,
     ``Qd(t) = Qd(delta) + Ad(delta) Qd(t0) Ad(delta)^T`` (exact identities), the step's
     three from the Taylor series of the block exponential
     ``expm([[A, Q, B], [0, -A^T, 0], [0, 0, 0]] delta)`` (``Qd(delta) = G Ad(delta)^T``, with
     ``G`` its upper middle block), cut where the terms left out are below ``2^-54`` of the
     leading one (``theta = alpha delta <= 0.5``). A composed interval agrees with ``expm``'s
-    within a few units in the last place, not bit for bit; an anchor is ``expm``'s exactly,
-    so a steady rate gives the same numbers as :func:`transition`. Which intervals are
-    anchors depends on the order they come in: the same stamps give the same numbers.
+    within a few units in the last place, not bit for bit; the first interval is
+    ``expm``'s exactly, so a steady rate gives the same numbers as :func:`transition`. The
+    value of an interval depends on it and on the first interval only, not on the order
+    the others come in (a history re-run gives the numbers of a run in stamp order).
 
     Parameters
     ----------
@@ -235,8 +235,8 @@ class IntervalSampler:
     >>> import numpy as np
     >>> sampler = IntervalSampler(np.array([[0.0, 1.0], [-4.0, -0.4]]), np.array([[0.0], [1.0]]),
     ...                           np.diag([0.0, 0.04]))
-    >>> ad, bd, qd = sampler.sample(10_000_000)  # the first: an anchor, expm
-    >>> ad, bd, qd = sampler.sample(10_100_000)  # composed from it
+    >>> ad, bd, qd = sampler.sample(10_000_000)  # the first: expm
+    >>> ad, bd, qd = sampler.sample(10_100_000)  # the series from 0 (grid_ns 113.6 ms)
     >>> exact, _ = zero_order_hold(sampler.a, sampler.b, 0.0101)
     >>> bool(np.allclose(ad, exact, rtol=0.0, atol=1e-15)), sampler.anchors()
     (True, [10000000])
@@ -257,44 +257,52 @@ class IntervalSampler:
         self._first_row = np.ascontiguousarray(np.eye(n_states, size))
         self.alpha = float(max(np.abs(a).sum(axis=0).max(initial=0.0),
                                np.abs(a).sum(axis=1).max(initial=0.0)))
-        self._anchor_keys: list = []
+        #: Spacing of the intervals sampled with expm to compose from (None: every
+        #: interval from zero, A = 0).
+        self.grid_ns = (max(1, int(SERIES_REACH / self.alpha * NANOSECONDS))
+                        if self.alpha > 0.0 else None)
+        self._first: Optional[tuple] = None
         self._anchors: dict = {}
 
     def anchors(self) -> list:
-        """Return the intervals (ns) sampled with ``expm``, in increasing order."""
-        return list(self._anchor_keys)
+        """Return the intervals (ns) sampled with ``expm``, the first one included, in order."""
+        first = [] if self._first is None else [self._first[0]]
+        return sorted(set(first) | set(self._anchors))
 
     def clear(self) -> None:
-        """Forget the anchors."""
-        self._anchor_keys.clear()
+        """Forget the intervals sampled."""
+        self._first = None
         self._anchors.clear()
 
     def sample(self, dt_ns: int) -> tuple:
         """Return ``(Ad, Bd, Qd)`` over ``dt_ns`` nanoseconds (> 0)."""
-        keys = self._anchor_keys
-        if keys:
-            index = bisect.bisect_right(keys, dt_ns)
-            base = keys[index - 1] if index else 0
-            delta = (dt_ns - base) / NANOSECONDS
-            if delta * self.alpha <= SERIES_REACH:
-                if delta == 0.0:
-                    return self._anchors[base]
-                step = self.step(delta)
-                if not base:
-                    return step
-                return compose(self._anchors[base], step)
-        return self._anchor(dt_ns)
+        first = self._first
+        if first is None:
+            value = self._exact(dt_ns)
+            self._first = (dt_ns, value)
+            return value
+        if dt_ns == first[0]:
+            return first[1]
+        grid = self.grid_ns
+        base = 0 if grid is None else dt_ns // grid * grid
+        if base == dt_ns:
+            return self._anchor(base)
+        step = self.step((dt_ns - base) / NANOSECONDS)
+        return step if not base else compose(self._anchor(base), step)
 
-    def _anchor(self, dt_ns: int) -> tuple:
+    def _anchor(self, base_ns: int) -> tuple:
+        anchors = self._anchors
+        value = anchors.get(base_ns)
+        if value is None:
+            if len(anchors) >= MAX_ANCHORS:
+                del anchors[next(iter(anchors))]
+            value = anchors[base_ns] = self._exact(base_ns)
+        return value
+
+    def _exact(self, dt_ns: int) -> tuple:
         dt = dt_ns / NANOSECONDS
         ad, bd = zero_order_hold(self.a, self.b, dt)
-        value = (ad, bd, van_loan(self.a, self.process_noise, dt))
-        keys = self._anchor_keys
-        if len(keys) >= MAX_ANCHORS:
-            del self._anchors[keys.pop(0)]
-        bisect.insort(keys, dt_ns)
-        self._anchors[dt_ns] = value
-        return value
+        return ad, bd, van_loan(self.a, self.process_noise, dt)
 
     def step(self, delta: float) -> tuple:
         """

@@ -204,8 +204,8 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
         """
         ``(Ad, Bd, Qd)`` of an interval: a discrete model's own (key 0), else sampled.
 
-        A continuous model is sampled exactly (``expm``) at its first interval and at one
-        far from those sampled so far; an interval near one of them is composed from it
+        A continuous model is sampled exactly (``expm``) at its first interval; another is
+        composed from a step and a multiple of a grid sampled exactly
         (:class:`~observer_ros.core.discretize.IntervalSampler`: equal within a few units
         in the last place, and no ``expm`` per jittered interval).
         """
