@@ -260,7 +260,8 @@ def test_jittered_intervals_are_composed_from_a_few_exact_samplings(monkeypatch)
     for k, stamp in enumerate(stamps):
         kf.update(int(stamp), ys[k], us[k - 1] if k else np.zeros(1))
     assert len(np.unique(np.diff(stamps))) > 400
-    assert len(calls) <= 2, len(calls)
+    # expm only at the whole milliseconds below the intervals (5 ... 14 ms), once each.
+    assert len(calls) <= 10, len(calls)
 
 
 @pytest.mark.parametrize('seed', range(6))
@@ -276,7 +277,7 @@ def test_a_composed_interval_equals_expm_within_a_few_ulps(seed):
     sampler = IntervalSampler(a, b, q)
     first = sampler.sample(PERIOD_NS)
     exact = transition(model, PERIOD_NS / 1e9, q)
-    for got, want in zip(first, exact):  # the anchor is expm's, bit for bit
+    for got, want in zip(first, exact):  # whole milliseconds: expm's, bit for bit
         assert got.tobytes() == want.tobytes()
     for dt_ns in (1, 1_000, PERIOD_NS - 3_000, PERIOD_NS + 7, PERIOD_NS + 2_345_678,
                   3 * PERIOD_NS // 2, 5_000_000):
@@ -292,10 +293,9 @@ def test_a_composed_interval_equals_expm_within_a_few_ulps(seed):
         assert np.abs(g - w).max() <= 64 * np.finfo(float).eps * np.abs(w).max()
     assert 3 * sampler.grid_ns in sampler.anchors()
     # The order the intervals come in changes nothing (a history re-run's numbers are
-    # those of a run in stamp order): only the first interval is special.
+    # those of a run in stamp order).
     intervals = [PERIOD_NS + 7, 1_000, far, 5_000_000, 3 * sampler.grid_ns + 5]
     other = IntervalSampler(a, b, q)
-    other.sample(PERIOD_NS)
     backwards = {dt_ns: other.sample(dt_ns) for dt_ns in intervals[::-1]}
     for dt_ns in intervals:
         for g, w in zip(sampler.sample(dt_ns), backwards[dt_ns]):

@@ -179,15 +179,18 @@ def transition(model, dt: float, process_noise: Optional[np.ndarray] = None) -> 
     return ad, bd, qd
 
 
-#: Intervals are composed from multiples of ``SERIES_REACH / alpha`` seconds sampled with
-#: ``expm`` (``alpha = max(||A||_1, ||A||_inf)``; :class:`IntervalSampler`).
+#: Largest ``alpha |delta|`` (``alpha = max(||A||_1, ||A||_inf)``) summed as a series.
 SERIES_REACH = 0.5
+
+#: Intervals that are whole multiples of this (1 ms) are sampled with ``expm`` exactly; the
+#: others are composed from the multiple below them (:class:`IntervalSampler`).
+EXACT_GRID_NS = 1_000_000
 
 #: Truncation of the series of a step, relative to its leading term (eps / 8).
 SERIES_TOLERANCE = 2.0 ** -55
 
 #: Multiples sampled with ``expm`` that are kept (the oldest made again when needed).
-MAX_ANCHORS = 32
+MAX_ANCHORS = 256
 
 
 def series_terms(theta: float) -> int:
@@ -208,20 +211,21 @@ class IntervalSampler:
     """
     ``(Ad, Bd, Qd)`` of a continuous model over intervals that jitter, without an ``expm`` each.
 
-    The first interval is sampled exactly (:func:`zero_order_hold`, :func:`van_loan`:
-    ``expm``) and kept for itself. Another interval ``t = t0 + delta`` is composed from the
-    largest multiple ``t0 <= t`` of ``grid_ns = SERIES_REACH / alpha`` (sampled exactly,
-    once; none, ``t0 = 0``, below one ``grid_ns``) and the step over ``delta``:
-    ``Ad(t) = Ad(delta) Ad(t0)``, ``Bd(t) = Bd(delta) + Ad(delta) Bd(t0)``,
+    An interval that is a whole multiple of ``grid_ns`` (:data:`EXACT_GRID_NS`, 1 ms; for
+    a model with ``alpha > 500 /s`` the largest power of ten nanoseconds up to
+    ``SERIES_REACH / alpha``) is sampled exactly (:func:`zero_order_hold`,
+    :func:`van_loan`: ``expm``), once. Another, ``t = t0 + delta`` with ``t0`` the multiple
+    below it (none, ``t0 = 0``, under one ``grid_ns``), is composed from it and the step over
+    ``delta``: ``Ad(t) = Ad(delta) Ad(t0)``, ``Bd(t) = Bd(delta) + Ad(delta) Bd(t0)``,
     ``Qd(t) = Qd(delta) + Ad(delta) Qd(t0) Ad(delta)^T`` (exact identities), the step's
     three from the Taylor series of the block exponential
     ``expm([[A, Q, B], [0, -A^T, 0], [0, 0, 0]] delta)`` (``Qd(delta) = G Ad(delta)^T``, with
     ``G`` its upper middle block), cut where the terms left out are below ``2^-54`` of the
     leading one (``theta = alpha delta <= 0.5``). A composed interval agrees with ``expm``'s
-    within a few units in the last place, not bit for bit; the first interval is
-    ``expm``'s exactly, so a steady rate gives the same numbers as :func:`transition`. The
-    value of an interval depends on it and on the first interval only, not on the order
-    the others come in (a history re-run gives the numbers of a run in stamp order).
+    within a few units in the last place, not bit for bit; a steady rate of whole
+    milliseconds (1 kHz, 100 Hz) is ``expm``'s exactly, as :func:`transition` gives. The
+    numbers of an interval depend on it alone, not on the order intervals come in (a
+    history re-run gives those of a run in stamp order).
 
     Parameters
     ----------
@@ -235,8 +239,8 @@ class IntervalSampler:
     >>> import numpy as np
     >>> sampler = IntervalSampler(np.array([[0.0, 1.0], [-4.0, -0.4]]), np.array([[0.0], [1.0]]),
     ...                           np.diag([0.0, 0.04]))
-    >>> ad, bd, qd = sampler.sample(10_000_000)  # the first: expm
-    >>> ad, bd, qd = sampler.sample(10_100_000)  # the series from 0 (grid_ns 113.6 ms)
+    >>> ad, bd, qd = sampler.sample(10_000_000)  # whole milliseconds: expm
+    >>> ad, bd, qd = sampler.sample(10_100_000)  # composed from it
     >>> exact, _ = zero_order_hold(sampler.a, sampler.b, 0.0101)
     >>> bool(np.allclose(ad, exact, rtol=0.0, atol=1e-15)), sampler.anchors()
     (True, [10000000])
@@ -257,34 +261,26 @@ class IntervalSampler:
         self._first_row = np.ascontiguousarray(np.eye(n_states, size))
         self.alpha = float(max(np.abs(a).sum(axis=0).max(initial=0.0),
                                np.abs(a).sum(axis=1).max(initial=0.0)))
-        #: Spacing of the intervals sampled with expm to compose from (None: every
-        #: interval from zero, A = 0).
-        self.grid_ns = (max(1, int(SERIES_REACH / self.alpha * NANOSECONDS))
-                        if self.alpha > 0.0 else None)
-        self._first: Optional[tuple] = None
+        reach_ns = (int(SERIES_REACH / self.alpha * NANOSECONDS) if self.alpha > 0.0
+                    else EXACT_GRID_NS)
+        #: Multiples of this (ns) are sampled with expm; 1 ms, or the largest power of ten
+        #: nanoseconds within the series' reach for a fast model.
+        self.grid_ns = (EXACT_GRID_NS if reach_ns >= EXACT_GRID_NS
+                        else 10 ** (len(str(max(1, reach_ns))) - 1))
         self._anchors: dict = {}
 
     def anchors(self) -> list:
-        """Return the intervals (ns) sampled with ``expm``, the first one included, in order."""
-        first = [] if self._first is None else [self._first[0]]
-        return sorted(set(first) | set(self._anchors))
+        """Return the intervals (ns) sampled with ``expm`` and kept, in increasing order."""
+        return sorted(self._anchors)
 
     def clear(self) -> None:
         """Forget the intervals sampled."""
-        self._first = None
         self._anchors.clear()
 
     def sample(self, dt_ns: int) -> tuple:
         """Return ``(Ad, Bd, Qd)`` over ``dt_ns`` nanoseconds (> 0)."""
-        first = self._first
-        if first is None:
-            value = self._exact(dt_ns)
-            self._first = (dt_ns, value)
-            return value
-        if dt_ns == first[0]:
-            return first[1]
         grid = self.grid_ns
-        base = 0 if grid is None else dt_ns // grid * grid
+        base = dt_ns // grid * grid
         if base == dt_ns:
             return self._anchor(base)
         step = self.step((dt_ns - base) / NANOSECONDS)
