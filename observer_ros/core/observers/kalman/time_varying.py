@@ -42,16 +42,16 @@ R. S. Bucy and P. D. Joseph, Filtering for Stochastic Processes, 1968 (the Josep
 from typing import Optional
 
 import numpy as np
+from scipy.linalg.lapack import dpotrf, dpotrs
 
 from observer_ros.core.analysis import require_seen
-from observer_ros.core.discretize import transition
+from observer_ros.core.discretize import IntervalSampler
 from observer_ros.core.errors import ConfigError, StampError
 from observer_ros.core.estimators.intervals import IntervalCache, IntervalDesigns
 from observer_ros.core.estimators.protocol import (
     Estimator, model_feedthrough, PinnedInitialState, Prediction, SubsetUpdates)
 from observer_ros.core.flat_matrices import covariance_from_flat
 from observer_ros.core.model import StateSpaceModel
-from observer_ros.core.units import NANOSECONDS
 
 
 def parse_initial_covariance(values, n_states: int) -> np.ndarray:
@@ -134,11 +134,13 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
         self.initial_covariance = parse_initial_covariance(initial_covariance, n)
         self._pinned = None
         self.initial_state = initial_state
+        self._sampler = self._new_sampler()
         self.intervals = IntervalCache(self._sample, resolution_ns=interval_resolution_ns,
                                        constant=model.dt > 0.0)
         self._identity = np.eye(n)
         self._c_row = self.model.c[0].copy() if self.n_outputs == 1 else None
         self._r_value = float(self.measurement_noise[0, 0])
+        self._rhs = np.empty((self.n_outputs, n + 1), order='F')
         self._subsets: dict = {}
         self.reset()
 
@@ -193,42 +195,70 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
 
     # --- the filter ----------------------------------------------------------------------
 
-    def _sample(self, key_ns: int) -> tuple:
-        """``(Ad, Bd, Qd)`` of an interval: a discrete model's own (key 0), else sampled."""
+    def _new_sampler(self) -> Optional[IntervalSampler]:
         if self.model.dt > 0.0:
+            return None
+        return IntervalSampler(self.model.a, self.model.b, self.process_noise)
+
+    def _sample(self, key_ns: int) -> tuple:
+        """
+        ``(Ad, Bd, Qd)`` of an interval: a discrete model's own (key 0), else sampled.
+
+        A continuous model is sampled exactly (``expm``) at its first interval; another is
+        composed from a step and a multiple of a grid sampled exactly
+        (:class:`~observer_ros.core.discretize.IntervalSampler`: equal within a few units
+        in the last place, and no ``expm`` per jittered interval).
+        """
+        if self._sampler is None:
             return self.model.a, self.model.b, self.process_noise
-        return transition(self.model, key_ns / NANOSECONDS, self.process_noise)
+        return self._sampler.sample(key_ns)
+
+    def _forget_intervals(self) -> None:
+        self._sampler = self._new_sampler()
 
     def _measure(self, x_prior: np.ndarray, p_prior: np.ndarray, y: np.ndarray,
                  rows: Optional[tuple] = None) -> None:
         """Update ``(x-, P-)`` with ``y``: every output, or the ``rows`` of :meth:`_rows`."""
         if rows is None:
-            c, r, c_row, r_value = (self.model.c, self.measurement_noise, self._c_row,
-                                    self._r_value)
+            c, r, c_row, r_value, rhs = (self.model.c, self.measurement_noise, self._c_row,
+                                         self._r_value, self._rhs)
         else:
-            c, r, c_row, r_value = rows
+            c, r, c_row, r_value, rhs = rows
         if c_row is not None:
             self._measure_one(x_prior, p_prior, y, c_row, r_value)
             return
         if not len(c):
             self._predict_only(x_prior, p_prior)
             return
-        pc = p_prior @ c.T
-        s = c @ pc + r
+        n_states = self.n_states
+        right = rhs if rhs is not None else np.empty((len(c), n_states + 1), order='F')
+        cp = right[:, :n_states]
+        np.matmul(c, p_prior, out=cp)  # C P- = (P- C^T)^T
         innovation = y - c @ x_prior
-        s = 0.5 * (s + s.T)
-        factor = np.linalg.cholesky(s)
-        k = np.linalg.solve(factor.T, np.linalg.solve(factor, pc.T)).T  # P- C^T S^-1
-        whitened = np.linalg.solve(factor, innovation)
-        nis = whitened @ whitened
-        noise = k @ r @ k.T
-        # Joseph form (I - K C) P- (I - K C)^T + K R K^T, its products taken as rank-p
-        # updates: (I - K C) P- = P- - K (P- C^T)^T, then M (I - K C)^T = M - (M C^T) K^T.
-        left = p_prior - k @ pc.T
-        p = left - (left @ c.T) @ k.T + noise
-        self._x = x_prior + k @ innovation
+        right[:, n_states] = innovation
+        s = cp @ c.T
+        s += r
+        # LAPACK directly (numpy's linalg wrappers cost several times the call on p x p):
+        # S = L L^T (its lower triangle read), then S^-1 [C P- | v] in one solve: K^T and
+        # S^-1 v for the NIS.
+        factor, info = dpotrf(s, lower=1, clean=0)
+        if info:
+            raise np.linalg.LinAlgError(
+                f'the innovation covariance S = C P- C^T + R is not positive definite '
+                f'(dpotrf info {info})')
+        solved, info = dpotrs(factor, right, lower=1)
+        k_t = solved[:, :n_states]
+        k = k_t.T  # P- C^T S^-1
+        nis = innovation @ solved[:, n_states]
+        # Joseph form, as in _measure_one: left = (I - K C) P-, then left (I - K C)^T
+        # + K R K^T = left - (left C^T - K R) K^T.
+        left = p_prior - k @ cp
+        p = left - (left @ c.T - k @ r) @ k_t
         p += p.T
         p *= 0.5
+        s += s.T
+        s *= 0.5
+        self._x = x_prior + k @ innovation
         self._p = p
         self._innovation, self._s, self._k, self._nis = innovation, s, k, float(nis)
         self._one = None
@@ -261,14 +291,19 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
         self._nis, self._one = 0.0, None
 
     def _rows(self, outputs: tuple) -> tuple:
-        """``(C_s, R_s, c_row, r_value)`` of some outputs (cached): the rows of C and R."""
+        """
+        ``(C_s, R_s, c_row, r_value, rhs)`` of some outputs (cached): the rows of C and R.
+
+        ``rhs``: the work array of the solve, ``(p_s, n + 1)`` Fortran-ordered.
+        """
         rows = self._subsets.get(outputs)
         if rows is None:
             index = list(outputs)
             c = np.ascontiguousarray(self.model.c[index])
             r = np.ascontiguousarray(self.measurement_noise[np.ix_(index, index)])
             one = len(index) == 1
-            rows = (c, r, c[0].copy() if one else None, float(r[0, 0]) if one else 0.0)
+            rows = (c, r, c[0].copy() if one else None, float(r[0, 0]) if one else 0.0,
+                    np.empty((len(index), self.n_states + 1), order='F'))
             self._subsets[outputs] = rows
         return rows
 
@@ -402,7 +437,9 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
         self.feedthrough = other.feedthrough
         self.process_noise, self.measurement_noise = other.process_noise, other.measurement_noise
         self._c_row, self._r_value = other._c_row, other._r_value
+        self._rhs = np.empty_like(other._rhs, order='F')
         self._subsets = {}
         self.initial_covariance = other.initial_covariance
+        self._sampler = self._new_sampler()
         self.intervals.clear(recent=False)
         self.interval_resolution_ns = other.interval_resolution_ns
