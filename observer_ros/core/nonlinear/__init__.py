@@ -24,5 +24,8 @@ unscented Kalman filters (:mod:`~observer_ros.core.nonlinear.ekf`,
 
 from observer_ros.core.nonlinear.expressions import (
     Expression, ExpressionError, FUNCTIONS, parse_expression)
+from observer_ros.core.nonlinear.model import (
+    differential_drive, linear_as_expressions, NonlinearModel)
 
-__all__ = ['Expression', 'ExpressionError', 'FUNCTIONS', 'parse_expression']
+__all__ = ['Expression', 'ExpressionError', 'FUNCTIONS', 'NonlinearModel',
+           'differential_drive', 'linear_as_expressions', 'parse_expression']
