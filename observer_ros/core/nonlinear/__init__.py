@@ -22,10 +22,14 @@ unscented Kalman filters (:mod:`~observer_ros.core.nonlinear.ekf`,
 :mod:`~observer_ros.core.nonlinear.ukf`) run them in the event engine like any estimator.
 """
 
+from observer_ros.core.nonlinear.ekf import ExtendedKalman
 from observer_ros.core.nonlinear.expressions import (
     Expression, ExpressionError, FUNCTIONS, parse_expression)
+from observer_ros.core.nonlinear.filter import NonlinearFilter
 from observer_ros.core.nonlinear.model import (
     differential_drive, linear_as_expressions, NonlinearModel)
+from observer_ros.core.nonlinear.ukf import UnscentedKalman
 
-__all__ = ['Expression', 'ExpressionError', 'FUNCTIONS', 'NonlinearModel',
-           'differential_drive', 'linear_as_expressions', 'parse_expression']
+__all__ = ['Expression', 'ExpressionError', 'ExtendedKalman', 'FUNCTIONS', 'NonlinearFilter',
+           'NonlinearModel', 'UnscentedKalman', 'differential_drive', 'linear_as_expressions',
+           'parse_expression']

@@ -320,23 +320,32 @@ class NonlinearModel:
             sp = self._sp
             rows = [self._h[i] for i in key]
             jacobian = [sp.diff(hi, xj) for hi in rows for xj in self._x]
-            function = _MeasurementFunction(self._lambdify([rows, jacobian]), len(key),
-                                            self.n_states, self.parameters)
+            function = _MeasurementFunction(self._lambdify([rows, jacobian]),
+                                            self._lambdify(rows), len(key), self.n_states,
+                                            self.parameters)
             self._measurements[key] = function
         return function
 
     def h(self, x, u, outputs: Optional[tuple] = None) -> np.ndarray:
         """Return the measurement of ``outputs`` (all: None) at ``(x, u)``, shape ``(q,)``."""
-        return self.measurement(outputs)(x, u)[0]
+        return self.measurement(outputs).values(x, u)
 
 
 class _MeasurementFunction:
     """``(h, H)`` of some outputs at ``(x, u)``: NaN where a function left its domain."""
 
-    def __init__(self, compiled: _Compiled, rows: int, n_states: int,
+    def __init__(self, compiled: _Compiled, values: _Compiled, rows: int, n_states: int,
                  parameters: np.ndarray) -> None:
         self.compiled, self.rows, self.n_states = compiled, rows, n_states
+        self._values = values
         self.parameters = parameters
+
+    def values(self, x, u) -> np.ndarray:
+        """Return ``h(x, u)`` alone, shape ``(q,)`` (the unscented filter's sigma points)."""
+        values = self._values(x, u, self.parameters)
+        if values is None:
+            return np.full(self.rows, math.nan)
+        return np.array(values, dtype=float)
 
     def __call__(self, x, u) -> tuple:
         values = self.compiled(x, u, self.parameters)
