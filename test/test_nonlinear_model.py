@@ -87,12 +87,15 @@ def test_a_linear_model_as_expressions_has_its_matrices_as_jacobians():
     assert equations.measurement()(x, u)[1].tolist() == model.c.tolist()
 
 
-def test_values_outside_a_functions_domain_give_nan_not_an_exception():
+def test_values_outside_a_functions_domain_are_not_finite_and_raise_nothing():
     model = NonlinearModel(['a', 'b'], {'a': 'sqrt(a)', 'b': 'log(b) + exp(b)'},
                            {'y': '1 / a'})
     assert np.isnan(model.f([-1.0, 1.0], [])).all()
     assert np.isnan(model.f_and_jacobian([1.0, 1e6], [])[1]).all()
-    assert np.isnan(model.h([0.0, 1.0], [])).all()
+    assert not np.isfinite(model.measurement()([0.0, 1.0], [])[0]).any()
+    assert not np.isfinite(model.h([0.0, 1.0], [])).any()  # numpy on rows: inf
+    many = model.f_many([[-1.0, 1.0], [4.0, 1.0]], [])
+    assert np.isnan(many[0, 0]) and many[1].tolist() == [2.0, math.e]
 
 
 def test_min_max_and_abs_have_their_jacobians():

@@ -252,15 +252,18 @@ class NonlinearModel:
         self._jacobian = [[sp.diff(fi, xj) for xj in x] for fi in self._f]
         self._f_only = self._lambdify(self._f)
         flat = [entry for row in self._jacobian for entry in row]
-        self._f_jacobian = self._lambdify([self._f, flat])
+        self._f_jacobian = self._lambdify(self._f + flat)
+        self._f_many = self._lambdify(self._f, many=True)
         self._measurements: dict = {}
 
-    def _lambdify(self, expressions):
+    def _lambdify(self, expressions, many: bool = False):
+        """Generate a function of ``(x, u, parameters)``: ``math`` on floats, or numpy on rows."""
         sp = self._sp
-        modules = [{'Heaviside': _heaviside, 'sign': _sign}, 'math']
+        modules = ('numpy' if many else
+                   [{'Heaviside': _heaviside, 'sign': _sign}, 'math'])
         function = sp.lambdify([list(self._x), list(self._u), list(self._k)], expressions,
                                modules=modules, cse=True)
-        return _Compiled(function, len(expressions))
+        return (_Many if many else _Compiled)(function, len(expressions))
 
     def symbolic(self) -> tuple:
         """Return SymPy's expressions and symbols: ``(f, h, x, u)``."""
@@ -289,8 +292,17 @@ class NonlinearModel:
         values = self._f_jacobian(x, u, self.parameters)
         if values is None:
             return np.full(n, math.nan), np.full((n, n), math.nan)
-        return (np.array(values[0], dtype=float),
-                np.array(values[1], dtype=float).reshape(n, n))
+        values = np.array(values, dtype=float)
+        return values[:n], values[n:].reshape(n, n)
+
+    def f_many(self, points, u) -> np.ndarray:
+        """
+        Return the dynamics at many states ``points`` ``(k, n)`` with ``u``: ``(k, n)``.
+
+        One vectorized call (the unscented filter's sigma points); NaN where a function left
+        its domain.
+        """
+        return self._f_many(points, u, self.parameters)
 
     def jacobian(self, x, u) -> np.ndarray:
         """Return ``F = df/dx`` at ``(x, u)``, shape ``(n, n)``."""
@@ -320,15 +332,32 @@ class NonlinearModel:
             sp = self._sp
             rows = [self._h[i] for i in key]
             jacobian = [sp.diff(hi, xj) for hi in rows for xj in self._x]
-            function = _MeasurementFunction(self._lambdify([rows, jacobian]),
-                                            self._lambdify(rows), len(key), self.n_states,
-                                            self.parameters)
+            function = _MeasurementFunction(self._lambdify(rows + jacobian),
+                                            self._lambdify(rows, many=True), len(key),
+                                            self.n_states, self.parameters)
             self._measurements[key] = function
         return function
 
     def h(self, x, u, outputs: Optional[tuple] = None) -> np.ndarray:
         """Return the measurement of ``outputs`` (all: None) at ``(x, u)``, shape ``(q,)``."""
         return self.measurement(outputs).values(x, u)
+
+
+@dataclass(frozen=True)
+class _Many:
+    """A generated numpy function of ``(X^T, u, parameters)`` for ``k`` points at once."""
+
+    function: object
+    rows: int
+
+    def __call__(self, points, u, parameters) -> np.ndarray:
+        points = np.asarray(points, dtype=float)
+        result = np.empty((len(points), self.rows))
+        with np.errstate(all='ignore'):  # outside a domain: NaN, dropped by the filters
+            values = self.function(points.T, u, parameters)
+        for row, value in enumerate(values):
+            result[:, row] = value  # a constant entry is broadcast
+        return result
 
 
 class _MeasurementFunction:
@@ -340,20 +369,21 @@ class _MeasurementFunction:
         self._values = values
         self.parameters = parameters
 
+    def many(self, points, u) -> np.ndarray:
+        """Return ``h`` at many states ``points`` ``(k, n)``: ``(k, q)`` (sigma points)."""
+        return self._values(points, u, self.parameters)
+
     def values(self, x, u) -> np.ndarray:
-        """Return ``h(x, u)`` alone, shape ``(q,)`` (the unscented filter's sigma points)."""
-        values = self._values(x, u, self.parameters)
-        if values is None:
-            return np.full(self.rows, math.nan)
-        return np.array(values, dtype=float)
+        """Return ``h(x, u)`` alone, shape ``(q,)``."""
+        return self._values(np.asarray(x, dtype=float)[None, :], u, self.parameters)[0]
 
     def __call__(self, x, u) -> tuple:
         values = self.compiled(x, u, self.parameters)
+        rows = self.rows
         if values is None:
-            return (np.full(self.rows, math.nan),
-                    np.full((self.rows, self.n_states), math.nan))
-        return (np.array(values[0], dtype=float),
-                np.array(values[1], dtype=float).reshape(self.rows, self.n_states))
+            return np.full(rows, math.nan), np.full((rows, self.n_states), math.nan)
+        values = np.array(values, dtype=float)
+        return values[:rows], values[rows:].reshape(rows, self.n_states)
 
 
 def _build_numbers(node, symbols, functions, constants, number):

@@ -119,11 +119,11 @@ class UnscentedKalman(NonlinearFilter):
             return np.full_like(x, math.nan), p
         model = self.model
         if model.is_discrete:
-            moved = np.array([model.f(point, u) for point in points])
+            moved = model.f_many(points, u)
             noise = self.process_noise
         else:
             count, h = self.steps(interval_ns)
-            moved = np.array([rk4(model.f, point, u, count, h) for point in points])
+            moved = rk4(model.f_many, points, u, count, h)
             noise = integrate(model.f_and_jacobian, x, self._zero, self.process_noise, u,
                               count, h)[1]
         if not np.isfinite(moved).all():
@@ -138,8 +138,7 @@ class UnscentedKalman(NonlinearFilter):
         points = self.sigma_points(x, p)
         if points is None:
             return None
-        measure = self.model.measurement(outputs).values
-        measured = np.array([measure(point, u) for point in points])
+        measured = self.model.measurement(outputs).many(points, u)
         if not np.isfinite(measured).all():
             return None
 
@@ -164,7 +163,7 @@ class UnscentedKalman(NonlinearFilter):
 
 
 def rk4(f, x: np.ndarray, u: np.ndarray, count: int, h: float) -> np.ndarray:
-    """Integrate ``x' = f(x, u)`` by the classical RK4 in ``count`` steps of ``h``."""
+    """Integrate ``x' = f(x, u)`` by the classical RK4 in ``count`` steps of ``h`` (rows of x)."""
     half, sixth = 0.5 * h, h / 6.0
     for _ in range(count):
         k1 = f(x, u)
