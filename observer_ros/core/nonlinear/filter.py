@@ -56,9 +56,20 @@ __all__ = ['NonlinearFilter', 'DEFAULT_MAX_STEP']
 DEFAULT_MAX_STEP = 0.001
 
 
-def finite(*arrays) -> bool:
-    """Whether every entry of every array is finite."""
-    return all(np.isfinite(array).all() for array in arrays)
+def finite(x: np.ndarray, p: np.ndarray) -> bool:
+    """Say whether every entry of an estimate and its covariance is finite: sums first."""
+    if math.isfinite(x @ x) and math.isfinite(p.sum()):
+        return True
+    return bool(np.isfinite(x).all() and np.isfinite(p).all())  # an overflow of the sum
+
+
+def keep_in_range(x: np.ndarray, states: tuple) -> np.ndarray:
+    """Wrap the angle ``states`` of ``x`` to ``(-pi, pi]`` in place (floats, no arrays)."""
+    for index in states:
+        value = x[index]
+        if not -math.pi < value <= math.pi:
+            x[index] = float(wrap_angles(value))
+    return x
 
 
 class NonlinearFilter(PinnedInitialState, SubsetUpdates, Estimator):
@@ -253,7 +264,7 @@ class NonlinearFilter(PinnedInitialState, SubsetUpdates, Estimator):
         result = None
         if finite(x_prior, p_prior):
             if self.angles is not None:
-                self.angles.keep(x_prior)
+                keep_in_range(x_prior, self.angles.states)
             if outputs:
                 result = self.correct(x_prior, p_prior, np.asarray(y, dtype=float), u, outputs)
             else:
@@ -262,7 +273,7 @@ class NonlinearFilter(PinnedInitialState, SubsetUpdates, Estimator):
             return self._drop(stamp_ns, outputs)
         x, p, innovation, s, nis = result
         if self.angles is not None:
-            self.angles.keep(x)
+            keep_in_range(x, self.angles.states)
         self._x, self._p = x, 0.5 * (p + p.T)
         self._innovation, self._s, self._nis = innovation, s, float(nis)
         self._stamp, self._last_interval = stamp_ns, interval
