@@ -308,3 +308,19 @@ def test_bad_arguments_are_refused_naming_them(arguments, parameter, what):
         with pytest.raises(ConfigError) as caught:
             kind(**given)
         assert caught.value.parameter == parameter and what in caught.value.reason
+
+
+@pytest.mark.parametrize('kind', [ExtendedKalman, UnscentedKalman])
+def test_late_and_out_of_order_samples_give_what_stamp_order_gives_bit_for_bit(kind):
+    inputs, samples = recording(seconds=0.8)
+    histories = []
+    for order in (arrival_order(samples), sorted(samples, key=lambda s: s[0])):
+        stream = make_stream(kind(differential_drive(RADIUS, TRACK), Q, R, P0, X0,
+                                  max_step=0.005))
+        for stamp, u in inputs:
+            stream.add_input(stamp, u)
+        for stamp, source, y in order:
+            stream.add_measurement(stamp, list(y), source=source)
+        histories.append([(s.stamp_ns, s.estimate.tobytes(), s.covariance.tobytes())
+                          for s in stream.history()])
+    assert len(histories[0]) >= 40 and histories[0] == histories[1]
