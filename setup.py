@@ -56,12 +56,15 @@ setup(
         'console_scripts': _node_specs().console_scripts(),
         # The observer types, found by observer_ros.core.observers through this group; a
         # separate package adds one in its own setup.py. Each type's priority orders them
-        # (full_order, reduced_order, chen, kalman), not this list.
+        # (full_order, reduced_order, chen, kalman, extended_kalman, unscented_kalman), not
+        # this list.
         'observer_ros.observer_types': [
             'full_order = observer_ros.core.observers.full_order:TYPE',
             'reduced_order = observer_ros.core.observers.reduced_order:TYPE',
             'chen = observer_ros.core.observers.chen:TYPE',
             'kalman = observer_ros.core.observers.kalman:TYPE',
+            'extended_kalman = observer_ros.core.observers.extended_kalman:TYPE',
+            'unscented_kalman = observer_ros.core.observers.unscented_kalman:TYPE',
         ],
     },
 )

@@ -40,7 +40,7 @@ TABLE_WORDS = {True: 'met', False: '**not met**', None: 'measured'}
 
 #: Section number -> module.
 SECTIONS = {1: 'design', 2: 'update', 3: 'throughput', 4: 'ros_latency', 5: 'closed_loop',
-            6: 'noise', 7: 'scale', 8: 'decoding', 9: 'sources'}
+            6: 'noise', 7: 'scale', 8: 'decoding', 9: 'sources', 10: 'nonlinear'}
 
 
 def environment() -> str:
@@ -58,11 +58,11 @@ def environment() -> str:
 def previous_sections(text: str) -> tuple:
     """Summary rows and section bodies of an existing report, by section number."""
     rows = {int(m.group(1)): m.group(0)
-            for m in re.finditer(r'^\| (\d)\. .*\|$', text, flags=re.MULTILINE)}
+            for m in re.finditer(r'^\| (\d+)\. .*\|$', text, flags=re.MULTILINE)}
     bodies = {}
-    parts = re.split(r'^(?=## \d\. )', text, flags=re.MULTILINE)
+    parts = re.split(r'^(?=## \d+\. )', text, flags=re.MULTILINE)
     for part in parts[1:]:
-        bodies[int(part[3])] = part.rstrip() + '\n'
+        bodies[int(part[3:].split('.')[0])] = part.rstrip() + '\n'
     return rows, bodies
 
 

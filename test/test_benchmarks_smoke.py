@@ -28,8 +28,8 @@ def test_smoke_run_writes_every_section_and_figure(tmp_path):
                             cwd=REPOSITORY, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr[-2000:]
     report = (tmp_path / 'BENCHMARKS.md').read_text(encoding='utf-8')
-    headings = re.findall(r'^## (\d)\. ', report, flags=re.MULTILINE)
-    assert headings == [str(n) for n in range(1, 10)]
+    headings = re.findall(r'^## (\d+)\. ', report, flags=re.MULTILINE)
+    assert headings == [str(n) for n in range(1, 11)]
     assert '(smoke run)' in report
     figures = re.findall(r'!\[[^]]*\]\(([^)]+)\)', report)
     assert len(figures) == 6

@@ -100,4 +100,5 @@ def test_the_install_tree_registers_the_observer_types(colcon_install):
                             env=dict(os.environ, PYTHONPATH=str(site)), cwd=str(colcon_install),
                             timeout=60)
     assert str(site) in result.stdout, result.stderr
-    assert "['full_order', 'reduced_order', 'chen', 'kalman']" in result.stdout
+    assert ("['full_order', 'reduced_order', 'chen', 'kalman', 'extended_kalman', "
+            "'unscented_kalman']") in result.stdout

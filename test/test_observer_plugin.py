@@ -81,7 +81,8 @@ def test_the_plugin_is_found_after_the_built_in_types(plugin_path):
     result = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
                             env=_environment(plugin_path), timeout=60)
     assert result.stdout.strip() == ("['full_order', 'reduced_order', 'chen', 'kalman', "
-                                     "'alpha_beta'] {}"), result.stderr
+                                     "'extended_kalman', 'unscented_kalman', 'alpha_beta'] {}"
+                                     ), result.stderr
 
 
 def test_design_observer_runs_it_and_skips_the_closed_loop_analysis(plugin_path):

@@ -27,13 +27,14 @@ from observer_ros.core.observers import GROUP, observer_type, observer_types, pl
 
 PACKAGE = REPOSITORY / 'observer_ros'
 BUILT_IN = ('full_order', 'reduced_order', 'chen', 'kalman')
+NONLINEAR = ('extended_kalman', 'unscented_kalman')  # filters of core.nonlinear
 
 
 def test_the_built_in_types_come_from_the_entry_point_group_in_priority_order():
     from importlib.metadata import entry_points
     assert {e.name for e in entry_points(group=GROUP)} >= set(BUILT_IN)
     kinds = observer_types()
-    assert tuple(kind.name for kind in kinds) == BUILT_IN
+    assert tuple(kind.name for kind in kinds) == BUILT_IN + NONLINEAR
     assert [kind.priority for kind in kinds] == sorted((k.priority for k in kinds),
                                                        reverse=True)
     assert plugin_failures() == {}
@@ -69,7 +70,8 @@ def test_capabilities_of_the_built_in_types(name, covariance, every_output):
 
 def test_an_unknown_type_lists_the_registered_ones():
     with pytest.raises(ConfigError, match=r'^observer.type: expected one of full_order, '
-                                          r"reduced_order, chen, kalman, got 'luenberger'$"):
+                                          r'reduced_order, chen, kalman, extended_kalman, '
+                                          r"unscented_kalman, got 'luenberger'$"):
         validate_parameters({'model.A': [0.0], 'model.B': [1.0], 'model.C': [1.0],
                              'observer.type': 'luenberger'})
 

@@ -35,7 +35,7 @@ ROSDEP_KEYS = {
     'numpy': 'python3-numpy', 'scipy': 'python3-scipy', 'yaml': 'python3-yaml',
     'matplotlib': 'python3-matplotlib', 'control': 'python-control-pip',
     'slycot': 'python-slycot-pip', 'rosbags': 'python3-rosbags-pip',
-    'cvxpy': 'python3-cvxpy-pip',
+    'cvxpy': 'python3-cvxpy-pip', 'sympy': 'python3-sympy',
 }
 
 #: Modules with no rosdep key: from PyPI (requirements.txt), imported only inside the

@@ -30,7 +30,7 @@ Examples
 --------
 >>> from observer_ros.core.observers import observer_type, observer_types
 >>> [t.name for t in observer_types()]
-['full_order', 'reduced_order', 'chen', 'kalman']
+['full_order', 'reduced_order', 'chen', 'kalman', 'extended_kalman', 'unscented_kalman']
 >>> observer_type('kalman').argument_names()[:2]
 ('process_noise', 'measurement_noise')
 >>> observer_type('kalman').capabilities.covariance
