@@ -78,7 +78,7 @@ def test_a_configured_type_equals_the_time_varying_kalman_filter(name, kind):
      ''),
     ({'observer.ukf_kappa': -5.0, 'observer.type': 'unscented_kalman'}, 'observer.ukf_kappa',
      'expected alpha^2 (n + kappa) > 0'),
-    ({'observer.poles': ['-1', '-2', '-3']}, 'observer.gain', 'takes its gain from'),
+    ({'observer.poles': ['-1', '-2', '-3']}, 'observer.poles', 'takes its gain from'),
     ({'observer.measurement_noise': []}, 'observer.measurement_noise', 'needs both'),
     ({'model.D': [0.0, 1.0]}, 'model.D', 'expected D = 0'),
 ])

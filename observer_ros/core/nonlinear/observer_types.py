@@ -64,8 +64,10 @@ CAPABILITIES = Capabilities(covariance=True, angles=True, needs_every_output=Fal
 
 def _vet(model, given):
     """Refuse a gain or poles (the gain comes from the noises)."""
-    if given.get('gain') or given.get('poles'):
-        raise ConfigError('gain', 'an extended or unscented Kalman filter takes its gain '
+    for name in ('gain', 'poles'):
+        if given.get(name) is None or not len(given[name]):
+            continue
+        raise ConfigError(name, 'an extended or unscented Kalman filter takes its gain '
                           'from process_noise and measurement_noise; leave gain and poles '
                           'empty')
 
