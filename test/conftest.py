@@ -64,6 +64,9 @@ DURATIONS_KEY = 'observer_ros/slowest'
 #: A test that took longer than this (s) in the last run starts first in the next one.
 SLOW_TEST = 5.0
 
+#: A run of fewer tests than this is not a whole run (the suite has about 1 500).
+WHOLE_RUN = 1000
+
 #: The slowest tests when no run has been recorded yet (node id -> seconds, quiet machine).
 KNOWN_SLOW = {
     'test/test_benchmarks_smoke.py::test_smoke_run_writes_every_section_and_figure': 60.0,
@@ -102,7 +105,7 @@ def pytest_sessionfinish(session):
     config = session.config
     cache = getattr(config, 'cache', None)
     if cache is None or hasattr(config, 'workerinput') or config.option.keyword \
-            or config.option.markexpr or session.testscollected < 500:
+            or config.option.markexpr or len(_durations) < WHOLE_RUN:
         return  # a partial run says nothing about the rest
     cache.set(DURATIONS_KEY, {nodeid: round(seconds, 1) for nodeid, seconds in
                               _durations.items() if seconds > SLOW_TEST})
