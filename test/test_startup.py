@@ -17,7 +17,9 @@
 import json
 import subprocess
 import sys
+import warnings
 
+import numpy as np
 import pytest
 
 from conftest import CONFIG_DIR, REPOSITORY
@@ -112,3 +114,28 @@ def test_the_nis_bounds_are_scipy_stats_chi2_quantiles_bit_for_bit(window, outpu
         wanted = (float(chi2.ppf(tail, window * outputs)) / window,
                   float(chi2.ppf(1 - tail, window * outputs)) / window)
         assert nis_bounds(window, outputs, confidence) == wanted
+
+
+def test_vargas_method_gives_control_place_vargas_gain_bit_for_bit():
+    # core.placement calls slycot's SB01BD as control.place_varga does, without importing
+    # python-control; the gains are the same to the last bit (repeated poles included).
+    control = pytest.importorskip('control')
+    pytest.importorskip('slycot')
+    from observer_ros.core.placement import _varga
+    rng = np.random.default_rng(1)
+    for n_states, n_inputs in [(2, 1), (3, 1), (4, 2), (6, 3), (10, 1)]:
+        for case in range(6):
+            a = rng.normal(size=(n_states, n_states))
+            b = rng.normal(size=(n_states, n_inputs))
+            poles = -rng.uniform(0.5, 5.0, size=n_states).astype(complex)
+            if case % 2:
+                poles[:2] = [-1 - 1j, -1 + 1j]
+            if case % 3 == 0:
+                poles[:] = -2.0
+            given = a.copy(), b.copy()
+            with warnings.catch_warnings():
+                warnings.simplefilter('ignore')  # SLICOT's stability-condition warnings
+                wanted = np.asarray(control.place_varga(a, b, poles))
+                got = _varga(a, b, poles)
+            assert got.tobytes() == wanted.tobytes(), (n_states, n_inputs, case)
+            assert np.array_equal(a, given[0]) and np.array_equal(b, given[1])
