@@ -57,6 +57,59 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.setdefault('MPLBACKEND', 'Agg')
 
 
+#: Where the last run's slowest tests are kept (pytest's cache, ``.pytest_cache``).
+DURATIONS_KEY = 'observer_ros/slowest'
+
+#: A test that took longer than this (s) in the last run starts first in the next one.
+SLOW_TEST = 5.0
+
+#: A run of fewer tests than this is not a whole run (the suite has about 1 500).
+WHOLE_RUN = 1000
+
+#: The slowest tests when no run has been recorded yet (node id -> seconds, quiet machine).
+KNOWN_SLOW = {
+    'test/test_benchmarks_smoke.py::test_smoke_run_writes_every_section_and_figure': 60.0,
+    'test/test_docs.py::test_the_docs_build_with_warnings_as_errors': 25.0,
+}
+
+
+def pytest_collection_modifyitems(session, config, items):
+    """
+    Start the slowest tests first (those over :data:`SLOW_TEST` in the last run).
+
+    Under ``-n 2`` the workers take the tests in this order: a long test that starts last
+    keeps one worker busy while the other waits, which cost the suite a minute. The others
+    keep their order (a module's tests together). Every worker reads the same cache, so
+    they collect the same order, as pytest-xdist requires.
+    """
+    cache = getattr(config, 'cache', None)
+    slow = (cache.get(DURATIONS_KEY, None) if cache is not None else None) or KNOWN_SLOW
+    first = sorted((item for item in items if item.nodeid in slow),
+                   key=lambda item: -slow[item.nodeid])
+    if first:
+        chosen = set(map(id, first))
+        items[:] = first + [item for item in items if id(item) not in chosen]
+
+
+_durations: dict = {}
+
+
+def pytest_runtest_logreport(report):
+    """Add up each test's set-up, call and teardown time (reported to the controller too)."""
+    _durations[report.nodeid] = _durations.get(report.nodeid, 0.0) + report.duration
+
+
+def pytest_sessionfinish(session):
+    """Keep the slowest tests of a whole run for the next one (the controller writes)."""
+    config = session.config
+    cache = getattr(config, 'cache', None)
+    if cache is None or hasattr(config, 'workerinput') or config.option.keyword \
+            or config.option.markexpr or len(_durations) < WHOLE_RUN:
+        return  # a partial run says nothing about the rest
+    cache.set(DURATIONS_KEY, {nodeid: round(seconds, 1) for nodeid, seconds in
+                              _durations.items() if seconds > SLOW_TEST})
+
+
 @pytest.fixture
 def config_dir() -> Path:
     """Directory of the shipped parameter files."""

@@ -27,8 +27,8 @@ Methods
     Each robustness iteration costs O(n^3) in Python loops (seconds at n = 100), so above
     :data:`LARGE_STATES` states only :data:`LARGE_MAXITER` are made.
 ``'varga'``
-    Varga's Schur method (SLICOT ``SB01BD`` through :func:`control.place_varga`), which
-    handles repeated poles.
+    Varga's Schur method (SLICOT ``SB01BD``, called as :func:`control.place_varga` calls
+    it), which handles repeated poles.
 ``'acker'``
     Ackermann's formula, single input only; ill-conditioned for large ``n``.
 ``'direct'``
@@ -44,8 +44,6 @@ Methods
 from dataclasses import dataclass, replace
 
 import numpy as np
-import scipy.optimize
-import scipy.signal
 
 from observer_ros.core.analysis import controllability_matrix, format_modes
 from observer_ros.core.errors import ConfigError, DesignError
@@ -200,7 +198,8 @@ def placement_residual(closed_loop: np.ndarray, poles: np.ndarray) -> tuple[floa
     if not np.all(np.isfinite(achieved)):
         return float('inf'), achieved
     cost = np.abs(achieved[:, None] - poles[None, :])
-    rows, cols = scipy.optimize.linear_sum_assignment(cost)
+    from scipy.optimize import linear_sum_assignment  # lazily: see preload_methods
+    rows, cols = linear_sum_assignment(cost)
     matched = np.empty_like(poles)
     matched[cols] = achieved[rows]
     residual = 0.0
@@ -255,17 +254,22 @@ def _canonical(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
 
 def _scipy_place(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
     maxiter = 50 if a.shape[0] <= LARGE_STATES else LARGE_MAXITER
-    result = scipy.signal.place_poles(a, b, poles, method='YT', maxiter=maxiter)
+    from scipy.signal import place_poles  # lazily: see preload_methods
+    result = place_poles(a, b, poles, method='YT', maxiter=maxiter)
     return np.asarray(result.gain_matrix)
 
 
 def preload_methods() -> None:
     """
-    Import what the placement methods need (python-control and slycot), now.
+    Import what the placement methods need (scipy.signal, scipy.optimize, slycot), now.
 
-    The core imports python-control only when Varga's method is first used, which takes
-    about a second; nodes call this at start-up so that no design on a callback path pays
-    for an import.
+    The core imports them only when a placement is first made: ``scipy.signal`` alone takes
+    0.4-1.7 s (it pulls in scipy.stats), which a node that designs nothing by placement
+    (a Kalman filter, the plant) should not pay at start-up. Nodes that may place poles
+    call this at start-up, so that no design on a callback path (a new ``observer.method``
+    or poles set at run time, a design per sample interval) pays for an import. Varga's
+    method calls SLICOT through slycot directly, not through python-control, whose import
+    takes matplotlib with it (another 0.4 s).
 
     Examples
     --------
@@ -273,12 +277,24 @@ def preload_methods() -> None:
     >>> preload_methods()
 
     """
-    import control  # noqa: F401
+    import scipy.optimize  # noqa: F401
+    import scipy.signal  # noqa: F401
+    try:
+        import slycot  # noqa: F401
+    except ImportError:  # Varga's method then fails as an attempt, naming the import
+        pass
 
 
 def _varga(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
-    import control  # slycot is needed; imported lazily so the core imports without it
-    return np.asarray(control.place_varga(a, b, poles))
+    # control.place_varga's call of SLICOT SB01BD, without importing python-control (and
+    # matplotlib with it): the same arguments, the same alpha rule, the same -F.
+    from slycot import sb01bd  # imported lazily so the core imports without slycot
+    a, b = np.array(a, dtype=float), np.array(b, dtype=float)  # copies, as control's
+    placed = np.atleast_1d(np.squeeze(np.asarray(poles)))
+    alpha = -2 * abs(min(np.linalg.eig(a)[0].real))
+    _, _, _, _, _, feedback, _ = sb01bd(b.shape[0], b.shape[1], len(placed), alpha, a, b,
+                                        placed, 'C')
+    return -feedback
 
 
 _ALGORITHMS = {

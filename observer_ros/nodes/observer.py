@@ -75,8 +75,9 @@ class ObserverWiring:
     def build(self, system) -> None:
         """Make the estimator, publishers, subscriptions, timers and ``~/reset``."""
         self.vet_system(system)
-        preload_methods()  # no placement method may import a module on a callback path
         setup = system.observer
+        if 'method' in setup.kind.argument_names():  # placement; the method may change
+            preload_methods()  # no placement method may import a module on a callback path
         self.stream = setup.take_stream()
         self._design_expected_interval(system)
         covariance = setup.kind.capabilities.covariance
