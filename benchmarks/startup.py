@@ -58,7 +58,8 @@ TIMEOUT = 30.0
 #: The goal: ready within this many seconds on a quiet machine.
 GOAL = 1.0
 
-MAIN = 'import sys; from {module} import main; sys.exit(main())'
+#: A node started as its console script does: the one main, given the executable's name.
+MAIN = 'import sys; from observer_ros.nodes.main import main; sys.exit(main({executable!r}))'
 IMPORT = 'import time; t = time.perf_counter(); import {module}; print(time.perf_counter() - t)'
 
 
@@ -80,12 +81,13 @@ def import_seconds(module: str) -> float:
 
 
 def ready_seconds(probe, module: str, parameters: str, topic: str) -> float:
-    """Start the node in a fresh process; seconds until its ``topic`` subscription is seen."""
+    """Start the node of ``module`` in a fresh process; seconds until ``topic`` is subscribed."""
+    executable = module.rsplit('.', 1)[-1]
     namespace = f'/startup_{uuid.uuid4().hex[:8]}'
     name = f'{namespace}/{topic}'
     started = time.monotonic()
     process = subprocess.Popen(
-        [sys.executable, '-c', MAIN.format(module=module), '--ros-args', '--params-file',
+        [sys.executable, '-c', MAIN.format(executable=executable), '--ros-args', '--params-file',
          str(CONFIG_DIR / parameters), '-r', f'__ns:={namespace}'],
         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     try:

@@ -23,12 +23,13 @@ import numpy as np
 import pytest
 
 from conftest import CONFIG_DIR, REPOSITORY
+from observer_ros.config.node_specs import NODE_SPECS
 from observer_ros.core.consistency import nis_bounds
 
-#: Every node module (each console script's and each managed twin's).
-NODE_MODULES = ('observer', 'observer_lifecycle', 'state_feedback', 'state_feedback_lifecycle',
-                'observer_controller', 'observer_controller_lifecycle', 'plant_simulator',
-                'closed_loop', 'bag_player')
+#: Every node module (each spec's, the one main of the executables and the managed twins,
+#: and the two nodes that are tools).
+NODE_MODULES = tuple(spec.module.rsplit('.', 1)[-1] for spec in NODE_SPECS) + (
+    'main', 'closed_loop', 'bag_player')
 
 #: Heavy modules no node needs to import before its design: scipy.signal alone took 1.7 s
 #: of a 3.5 s start-up at load 4.6 (pulled in by core.placement), python-control 0.4 s more
