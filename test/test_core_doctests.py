@@ -37,6 +37,7 @@ DOCUMENTED_MODULES = (
     'observer_ros.core.model',
     'observer_ros.core.flat_matrices',
     'observer_ros.core.discretize',
+    'observer_ros.core.ranks',
     'observer_ros.core.analysis',
     'observer_ros.core.poles',
     'observer_ros.core.placement',

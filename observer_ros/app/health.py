@@ -36,8 +36,9 @@ from typing import Iterable, Mapping, Optional, Sequence
 
 import numpy as np
 
-from observer_ros.core.analysis import format_modes, observability, observability_problem
+from observer_ros.core.analysis import observability_problem
 from observer_ros.core.consistency import NisWindow
+from observer_ros.core.ranks import format_modes, observability
 from observer_ros.core.units import NANOSECONDS
 
 #: Levels of ``diagnostic_msgs/DiagnosticStatus``.

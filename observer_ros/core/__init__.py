@@ -131,10 +131,11 @@ _EXPORTS = {
     'observer_ros.core.arguments': ('Argument',),
     'observer_ros.core.observers': ('Capabilities', 'ObserverType', 'make_estimator',
                                     'observer_type', 'observer_types', 'register'),
-    'observer_ros.core.analysis': (
+    'observer_ros.core.ranks': (
         'RankReport', 'observability', 'controllability', 'observability_matrix',
-        'controllability_matrix', 'pbh_lost_modes', 'require_observable',
-        'require_controllable', 'observability_problem', 'unseen_modes', 'UnseenMode'),
+        'controllability_matrix', 'pbh_lost_modes', 'require_controllable'),
+    'observer_ros.core.analysis': (
+        'require_observable', 'observability_problem', 'unseen_modes', 'UnseenMode'),
     'observer_ros.core.angles': ('Angles', 'check_angles', 'wrap_angles'),
     'observer_ros.core.poles': (
         'parse_poles', 'parse_pole', 'damping_pair', 'clean_poles', 'is_stable',

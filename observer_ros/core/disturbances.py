@@ -48,10 +48,11 @@ from typing import Optional, Sequence
 import numpy as np
 from scipy.linalg import expm
 
-from observer_ros.core.analysis import format_modes, observability_problem, pbh_lost_modes
+from observer_ros.core.analysis import observability_problem
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.flat_matrices import matrix_from_flat
 from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.ranks import format_modes, pbh_lost_modes
 
 #: Disturbance waveforms and their number of states.
 WAVEFORM_STATES = {'constant': 1, 'ramp': 2, 'sinusoid': 2}

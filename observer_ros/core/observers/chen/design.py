@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from observer_ros.core.analysis import format_modes, pbh_lost_modes, require_seen
+from observer_ros.core.analysis import require_seen
 from observer_ros.core.design.common import (
     ObserverDesign, ObserverRealization, require_stable_poles)
 from observer_ros.core.errors import ConfigError, DesignError
@@ -40,6 +40,7 @@ from observer_ros.core.flat_matrices import matrix_from_flat
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.placement import placement_residual, REPEATED_RTOL, sort_poles
 from observer_ros.core.poles import clean_poles
+from observer_ros.core.ranks import format_modes, pbh_lost_modes
 
 #: Largest accepted condition number of ``[C; T]``.
 MAX_CONDITION = 1e10
