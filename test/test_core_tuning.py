@@ -21,10 +21,11 @@ from observer_ros.core.discretize import zero_order_hold
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.observers.kalman.design import design_kalman
-from observer_ros.core.tuning.als import (
-    autocovariance_least_squares, innovation_autocovariances, NoiseStructure, SampledFilter)
+from observer_ros.core.tuning.als import autocovariance_least_squares
 from observer_ros.core.tuning.innovations import (
     decay_samples, InnovationStatistics, nis_summary, whiteness)
+from observer_ros.core.tuning.noise_model import (
+    innovation_autocovariances, NoiseStructure, SampledFilter)
 from observer_ros.core.tuning.subspace import (
     fit_percent, identify_subspace, order_advice, Record, to_continuous)
 

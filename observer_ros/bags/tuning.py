@@ -44,10 +44,10 @@ from observer_ros.bags.storage import BagError, TopicData
 from observer_ros.config.schema import topic_names
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.rules import in_sequence
-from observer_ros.core.tuning.als import (
-    AlsResult, autocovariance_least_squares, NoiseStructure, SampledFilter)
+from observer_ros.core.tuning.als import AlsResult, autocovariance_least_squares
 from observer_ros.core.tuning.innovations import (
     decay_samples, InnovationStatistics, nis_summary, NisSummary, Whiteness, whiteness)
+from observer_ros.core.tuning.noise_model import NoiseStructure, SampledFilter
 from observer_ros.core.units import NANOSECONDS
 
 #: Default burn-in: samples until ``||(Ad - L C)^k||`` falls to this.

@@ -171,9 +171,9 @@ _EXPORTS = {
                                        'augmented_noise'),
     'observer_ros.core.evaluation': (
         'ErrorReport', 'error_report', 'format_error_table', 'settling_time', 'decay_rate'),
-    'observer_ros.core.tuning.als': (
-        'AlsResult', 'NoiseStructure', 'SampledFilter', 'autocovariance_least_squares',
-        'innovation_autocovariances'),
+    'observer_ros.core.tuning.noise_model': (
+        'NoiseStructure', 'SampledFilter', 'innovation_autocovariances'),
+    'observer_ros.core.tuning.als': ('AlsResult', 'autocovariance_least_squares'),
     'observer_ros.core.tuning.innovations': ('InnovationStatistics', 'nis_summary',
                                              'whiteness'),
     'observer_ros.core.tuning.subspace': (

@@ -48,7 +48,8 @@ from observer_ros.bags.signals import SignalSpec
 from observer_ros.bags.tuning import (
     FAILED_CHECKS_STATUS, ITERATIONS, normalized_squares, SignalChoice, tune_noises, TuningRun)
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.tuning.als import NoiseStructure, STRUCTURES, WEIGHTINGS
+from observer_ros.core.tuning.als import WEIGHTINGS
+from observer_ros.core.tuning.noise_model import NoiseStructure, STRUCTURES
 from observer_ros.signals import stops_on_signal
 from observer_ros.tools.outputs import run_tool
 
