@@ -43,8 +43,9 @@ from observer_ros.bags.signals import (
 from observer_ros.bags.storage import BagError
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.rules import InputHistory
-from observer_ros.core.tuning.subspace import (
-    fit_percent, identify_subspace, Record, SubspaceModel, to_continuous, validate)
+from observer_ros.core.tuning.identified_model import (
+    fit_percent, Record, SubspaceModel, to_continuous, validate)
+from observer_ros.core.tuning.subspace import identify_subspace
 from observer_ros.core.units import NANOSECONDS
 
 #: A step longer than this many sample periods splits a bag into records.

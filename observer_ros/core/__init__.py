@@ -176,8 +176,9 @@ _EXPORTS = {
     'observer_ros.core.tuning.als': ('AlsResult', 'autocovariance_least_squares'),
     'observer_ros.core.tuning.innovations': ('InnovationStatistics', 'nis_summary',
                                              'whiteness'),
-    'observer_ros.core.tuning.subspace': (
-        'Record', 'SubspaceModel', 'fit_percent', 'identify_subspace', 'to_continuous'),
+    'observer_ros.core.tuning.identified_model': (
+        'Record', 'SubspaceModel', 'fit_percent', 'to_continuous'),
+    'observer_ros.core.tuning.subspace': ('identify_subspace',),
 }
 
 _MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}
