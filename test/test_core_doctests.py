@@ -55,6 +55,7 @@ DOCUMENTED_MODULES = (
     'observer_ros.core.consistency',
     'observer_ros.core.units',
     'observer_ros.core.simulation',
+    'observer_ros.core.disturbance_model',
     'observer_ros.core.disturbances',
     'observer_ros.core.evaluation',
     'observer_ros.core.arguments',

@@ -167,8 +167,9 @@ _EXPORTS = {
     'observer_ros.core.rules': ('ValueLimits',),
     'observer_ros.core.streaming': ('EventStream',),
     'observer_ros.core.simulation': ('PlantSimulator',),
-    'observer_ros.core.disturbances': ('Disturbance', 'DisturbanceModel', 'augment',
-                                       'augmented_noise'),
+    'observer_ros.core.disturbance_model': ('Disturbance', 'DisturbanceModel',
+                                            'augmented_noise'),
+    'observer_ros.core.disturbances': ('augment',),
     'observer_ros.core.evaluation': (
         'ErrorReport', 'error_report', 'format_error_table', 'settling_time', 'decay_rate'),
     'observer_ros.core.tuning.noise_model': (
