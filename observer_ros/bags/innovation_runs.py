@@ -30,7 +30,7 @@ from typing import Callable, Optional, Sequence
 import numpy as np
 
 from observer_ros.bags.filter_config import KalmanSetup, system_of
-from observer_ros.bags.identification import bag_signals
+from observer_ros.bags.paired_signals import bag_signals
 from observer_ros.bags.replay import replay_bag, replay_data
 from observer_ros.bags.signals import PERIOD_TOLERANCE, read_signals, SignalSpec
 from observer_ros.bags.storage import BagError, TopicData
@@ -162,7 +162,7 @@ def chosen_data(bag: str, system, choice: SignalChoice, y_topic: str, u_topic: s
         ``u`` from one), or a count of values other than the model's.
     BagError
         Topics the bag cannot give, outputs not stamped together, uneven sampling (with
-        ``resample``: what :func:`observer_ros.bags.identification.bag_signals` refuses).
+        ``resample``: what :func:`observer_ros.bags.paired_signals.bag_signals` refuses).
 
     """
     model = system.model
