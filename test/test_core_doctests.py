@@ -44,6 +44,7 @@ DOCUMENTED_MODULES = (
     'observer_ros.core.design.common',
     'observer_ros.core.observers.full_order.design',
     'observer_ros.core.observers.reduced_order.design',
+    'observer_ros.core.observers.chen.sylvester',
     'observer_ros.core.observers.chen.design',
     'observer_ros.core.observers.kalman.design',
     'observer_ros.core.design.feedback',
