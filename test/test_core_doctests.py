@@ -35,6 +35,7 @@ DOCUMENTED_MODULES = (
     'observer_ros.core',
     'observer_ros.core.errors',
     'observer_ros.core.model',
+    'observer_ros.core.control_conversion',
     'observer_ros.core.flat_matrices',
     'observer_ros.core.discretize',
     'observer_ros.core.ranks',
