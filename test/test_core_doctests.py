@@ -70,6 +70,11 @@ DOCUMENTED_MODULES = (
     'observer_ros.core.estimators.protocol',
     'observer_ros.core.observers.kalman.time_varying',
     'observer_ros.core.streaming',
+    'observer_ros.core.tuning.innovations',
+    'observer_ros.core.tuning.noise_model',
+    'observer_ros.core.tuning.als',
+    'observer_ros.core.tuning.identified_model',
+    'observer_ros.core.tuning.subspace',
 )
 
 
