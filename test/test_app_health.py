@@ -21,9 +21,10 @@ import pytest
 import scipy.stats
 
 from conftest import CONFIG_DIR
+from observer_ros.app.design_check import configuration_check
 from observer_ros.app.health import (
-    combine, configuration_check, CounterWatch, covariance_values, ERROR, innovation_values,
-    InputMonitor, nis_findings, OK, stale_timeout, WARN)
+    combine, CounterWatch, covariance_values, ERROR, innovation_values, InputMonitor,
+    nis_findings, OK, stale_timeout, WARN)
 from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.consistency import nis_bounds, NisWindow
 from observer_ros.core.errors import ConfigError

@@ -44,8 +44,9 @@ from observer_ros.core.loop_analysis.frequency import response_disagreement
 from observer_ros.core.loop_analysis.observer_controller import (
     AGREEMENT_RTOL, controller_transfer_function, ControllerMismatchWarning)
 from observer_ros.core.model import StateSpaceModel
-from observer_ros.core.observers.chen import design as chen
-from observer_ros.core.observers.chen.design import design_chen, orthonormal_chen
+from observer_ros.core.observers.chen import sylvester as chen
+from observer_ros.core.observers.chen.design import design_chen
+from observer_ros.core.observers.chen.sylvester import orthonormal_chen
 from observer_ros.core.observers.full_order.design import design_full_order
 from observer_ros.core.observers.reduced_order.design import design_reduced_order
 

@@ -42,7 +42,8 @@ from observer_ros.core.loop_analysis.diophantine import diophantine_controller
 from observer_ros.core.loop_analysis.observer_controller import (
     controller_state_space, controller_transfer_function, UnstableControllerWarning)
 from observer_ros.core.model import StateSpaceModel
-from observer_ros.core.observers.chen.design import design_chen, MAX_CONDITION
+from observer_ros.core.observers.chen.design import design_chen
+from observer_ros.core.observers.chen.sylvester import MAX_CONDITION
 from observer_ros.core.observers.full_order.design import design_full_order
 from observer_ros.core.observers.kalman.design import design_kalman, design_sampled_kalman
 from observer_ros.core.observers.reduced_order.design import (

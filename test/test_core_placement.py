@@ -30,10 +30,11 @@ import pytest
 
 from conftest import match
 from observer_ros.core import placement
-from observer_ros.core.analysis import (
-    controllability, observability, pbh_lost_modes, require_controllable, require_observable)
+from observer_ros.core.analysis import require_observable
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.poles import clean_poles, parse_pole, parse_poles, to_discrete
+from observer_ros.core.ranks import (
+    controllability, observability, pbh_lost_modes, require_controllable)
 
 SINGLE_INPUT_METHODS = ('auto', 'place', 'varga', 'acker', 'direct', 'canonical')
 MULTI_INPUT_METHODS = ('auto', 'place', 'varga')

@@ -32,7 +32,6 @@ import scipy.signal
 
 from conftest import match
 from observer_ros.core import placement
-from observer_ros.core.analysis import observability, observability_matrix
 from observer_ros.core.design.feedback import design_feedback
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.loop_analysis.diophantine import diophantine_controller, solve_diophantine
@@ -44,6 +43,7 @@ from observer_ros.core.observers.full_order.design import design_full_order
 from observer_ros.core.observers.reduced_order.design import design_reduced_order
 from observer_ros.core.poles import (
     damping_pair, parse_poles, poles_meeting_error_spec, slowest_allowed_pole)
+from observer_ros.core.ranks import observability, observability_matrix
 
 SINGLE_INPUT_METHODS = ('auto', 'place', 'varga', 'acker', 'direct', 'canonical')
 # scipy's robust 'place' refuses a pole repeated more than rank(B) times.

@@ -21,12 +21,13 @@ from observer_ros.core.discretize import zero_order_hold
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.observers.kalman.design import design_kalman
-from observer_ros.core.tuning.als import (
-    autocovariance_least_squares, innovation_autocovariances, NoiseStructure, SampledFilter)
+from observer_ros.core.tuning.als import autocovariance_least_squares
+from observer_ros.core.tuning.identified_model import fit_percent, Record, to_continuous
 from observer_ros.core.tuning.innovations import (
     decay_samples, InnovationStatistics, nis_summary, whiteness)
-from observer_ros.core.tuning.subspace import (
-    fit_percent, identify_subspace, order_advice, Record, to_continuous)
+from observer_ros.core.tuning.noise_model import (
+    innovation_autocovariances, NoiseStructure, SampledFilter)
+from observer_ros.core.tuning.subspace import identify_subspace, order_advice
 
 A2 = np.array([[0.9, 0.1], [-0.1, 0.8]])
 C2 = np.array([[1.0, 0.5], [0.0, 1.0]])
@@ -181,7 +182,7 @@ def test_subspace_identification_is_exact_without_noise_and_close_at_30_db():
     truth = np.sort_complex(np.linalg.eigvals(a))
     found = np.sort_complex(np.linalg.eigvals(continuous))
     assert (np.abs(found - truth) / np.abs(truth)).max() < 0.01
-    from observer_ros.core.tuning.subspace import validate
+    from observer_ros.core.tuning.identified_model import validate
     _, fit = validate(model, Record(u[6000:], y[6000:]))
     assert fit[0] > 90.0
     assert 'too low' in order_advice(model.singular_values, 2)

@@ -29,7 +29,8 @@ import numpy as np
 import pytest
 
 from conftest import console_script
-from observer_ros.app.health import configuration_check, ERROR, OK
+from observer_ros.app.design_check import configuration_check
+from observer_ros.app.health import ERROR, OK
 from observer_ros.config import validate_parameters
 from observer_ros.core import (
     ConfigError, design_chen, design_full_order, design_kalman, design_reduced_order,

@@ -18,6 +18,7 @@ The application layer without ROS: node health logic, design reports and run plo
 Built on the core and the configuration (:mod:`observer_ros.config`), used by the nodes,
 the tools and the bag replays: :mod:`~observer_ros.app.health` judges a running node's
 inputs and estimator (the levels of ``DiagnosticStatus``, its counters),
+:mod:`~observer_ros.app.design_check` its validated design,
 :mod:`~observer_ros.app.report` writes what ``design_observer`` prints, and
 :mod:`~observer_ros.app.plots` draws the figures of an estimation run. Imports no ROS.
 """

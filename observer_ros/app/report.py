@@ -17,12 +17,12 @@
 import numpy as np
 
 from observer_ros.config import Configuration
-from observer_ros.core.analysis import controllability, observability
 from observer_ros.core.errors import DesignError
 from observer_ros.core.loop_analysis.diophantine import diophantine_controller
 from observer_ros.core.loop_analysis.transfer_function import polynomial_text
 from observer_ros.core.model import model_feedthrough
 from observer_ros.core.poles import pole_pairs
+from observer_ros.core.ranks import controllability, observability
 
 
 def _rows(matrix) -> list:

@@ -37,7 +37,7 @@ from observer_ros.core.errors import ConfigError
 from observer_ros.core.observers.kalman import NAME as KALMAN_TYPE
 from observer_ros.core.observers.kalman.design import KalmanDesign
 from observer_ros.core.observers.kalman.estimator import KalmanStep
-from observer_ros.core.tuning.als import SampledFilter
+from observer_ros.core.tuning.noise_model import SampledFilter
 from observer_ros.core.units import NANOSECONDS
 
 #: The observer type whose noises the tools tune (its own name, from its package).

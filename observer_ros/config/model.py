@@ -23,7 +23,7 @@ transform is decided by it, and nowhere else:
 
 - the observer: its disturbance arguments (a Kalman filter's ``disturbance_noise``) only
   apply with disturbances (:meth:`Augmentation.refuse_without`); the type consumes them from
-  the :class:`~observer_ros.core.disturbances.DisturbanceModel` it is designed with;
+  the :class:`~observer_ros.core.disturbance_model.DisturbanceModel` it is designed with;
 - the state feedback: ``K`` is designed for the plant (:attr:`Augmentation.plant`), and
   ``feedback.disturbance_rejection`` gives the gain ``K_d`` on the disturbance estimates
   (:meth:`Augmentation.disturbance_gain`);
@@ -47,7 +47,8 @@ import numpy as np
 from observer_ros.config.sections import ModelSection
 from observer_ros.config.values import indices
 from observer_ros.core.angles import Angles, check_angles
-from observer_ros.core.disturbances import augment, DisturbanceModel
+from observer_ros.core.disturbance_model import DisturbanceModel
+from observer_ros.core.disturbances import augment
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.flat_matrices import vector_from_flat
 from observer_ros.core.model import StateSpaceModel

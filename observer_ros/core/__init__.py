@@ -131,10 +131,11 @@ _EXPORTS = {
     'observer_ros.core.arguments': ('Argument',),
     'observer_ros.core.observers': ('Capabilities', 'ObserverType', 'make_estimator',
                                     'observer_type', 'observer_types', 'register'),
-    'observer_ros.core.analysis': (
+    'observer_ros.core.ranks': (
         'RankReport', 'observability', 'controllability', 'observability_matrix',
-        'controllability_matrix', 'pbh_lost_modes', 'require_observable',
-        'require_controllable', 'observability_problem', 'unseen_modes', 'UnseenMode'),
+        'controllability_matrix', 'pbh_lost_modes', 'require_controllable'),
+    'observer_ros.core.analysis': (
+        'require_observable', 'observability_problem', 'unseen_modes', 'UnseenMode'),
     'observer_ros.core.angles': ('Angles', 'check_angles', 'wrap_angles'),
     'observer_ros.core.poles': (
         'parse_poles', 'parse_pole', 'damping_pair', 'clean_poles', 'is_stable',
@@ -166,17 +167,19 @@ _EXPORTS = {
     'observer_ros.core.rules': ('ValueLimits',),
     'observer_ros.core.streaming': ('EventStream',),
     'observer_ros.core.simulation': ('PlantSimulator',),
-    'observer_ros.core.disturbances': ('Disturbance', 'DisturbanceModel', 'augment',
-                                       'augmented_noise'),
+    'observer_ros.core.disturbance_model': ('Disturbance', 'DisturbanceModel',
+                                            'augmented_noise'),
+    'observer_ros.core.disturbances': ('augment',),
     'observer_ros.core.evaluation': (
         'ErrorReport', 'error_report', 'format_error_table', 'settling_time', 'decay_rate'),
-    'observer_ros.core.tuning.als': (
-        'AlsResult', 'NoiseStructure', 'SampledFilter', 'autocovariance_least_squares',
-        'innovation_autocovariances'),
+    'observer_ros.core.tuning.noise_model': (
+        'NoiseStructure', 'SampledFilter', 'innovation_autocovariances'),
+    'observer_ros.core.tuning.als': ('AlsResult', 'autocovariance_least_squares'),
     'observer_ros.core.tuning.innovations': ('InnovationStatistics', 'nis_summary',
                                              'whiteness'),
-    'observer_ros.core.tuning.subspace': (
-        'Record', 'SubspaceModel', 'fit_percent', 'identify_subspace', 'to_continuous'),
+    'observer_ros.core.tuning.identified_model': (
+        'Record', 'SubspaceModel', 'fit_percent', 'to_continuous'),
+    'observer_ros.core.tuning.subspace': ('identify_subspace',),
 }
 
 _MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}

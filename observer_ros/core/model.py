@@ -17,22 +17,20 @@ State-space models built from flat, row-major lists, from 2-D arrays or from pyt
 
 Errors name the matrices ``A``, ``B``, ``C``, ``D`` and the other fields (``dt``,
 ``state_names``...) as :mod:`observer_ros.core.errors` describes; the flat lists are read
-by :mod:`observer_ros.core.flat_matrices`.
+by :mod:`observer_ros.core.flat_matrices`, and the conversions from and to python-control
+are :mod:`observer_ros.core.control_conversion`.
 """
 
 from dataclasses import dataclass
 import math
-import re
 from typing import Any, Optional, Sequence
 
 import numpy as np
 
+from observer_ros.core import control_conversion
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.flat_matrices import (
     ArrayLike, as_finite_vector, matrix_from_flat, square_from_flat)
-
-#: Signal names python-control makes up when none are given (``x[0]``, ``u[1]``...).
-_CONTROL_DEFAULT_NAME = re.compile(r'^[xuy]\[\d+\]$')
 
 
 def _names(parameter: str, names: Optional[Sequence[str]], size: int, prefix: str):
@@ -301,101 +299,10 @@ class StateSpaceModel:
         return cls.from_flat(a.ravel(), b.ravel(), c.ravel(), d_flat, dt,
                              state_names, input_names, output_names)
 
-    @classmethod
-    def from_statespace(cls, sys: Any) -> 'StateSpaceModel':
-        """
-        Build a model from a python-control ``StateSpace`` system.
-
-        Parameters
-        ----------
-        sys : control.StateSpace
-            Continuous (``sys.dt`` 0, or None for an unspecified time base, taken as
-            continuous) or discrete with a period (``sys.dt > 0``). Its state, input and
-            output labels become the model's names, unless they are the ones
-            python-control makes up (``x[0]``, ``u[0]``, ``y[0]``...).
-
-        Returns
-        -------
-        StateSpaceModel
-
-        Raises
-        ------
-        ConfigError
-            Naming ``sys`` when it is not a state-space system (convert a transfer function
-            with ``control.ss`` first, choosing the realization) or is discrete with an
-            unspecified period (``dt=True``); naming ``A`` ... ``D`` as :meth:`from_flat`
-            does for empty or non-finite matrices.
-
-        Examples
-        --------
-        >>> import control
-        >>> from observer_ros.core import StateSpaceModel
-        >>> cart = control.ss([[0, 1], [0, 0]], [[0], [1]], [[1, 0]], 0, 0.01,
-        ...                   states=['position', 'velocity'], inputs=['force'])
-        >>> model = StateSpaceModel.from_statespace(cart)
-        >>> model.dt, model.state_names, model.input_names, model.output_names
-        (0.01, ('position', 'velocity'), ('force',), ('y1',))
-
-        """
-        matrices = [getattr(sys, name, None) for name in ('A', 'B', 'C', 'D')]
-        if any(matrix is None for matrix in matrices) or not hasattr(sys, 'dt'):
-            raise ConfigError(
-                'sys', f'expected a control.StateSpace system, got {type(sys).__name__}; '
-                'convert a transfer function with control.ss(sys), which chooses the states')
-        dt = sys.dt
-        if dt is None:
-            dt = 0.0
-        elif dt is True:
-            raise ConfigError(
-                'sys', 'the system is discrete with an unspecified period (dt=True); set '
-                'its period in seconds (control.ss(..., dt=0.01))')
-
-        def labels(name: str) -> Optional[list]:
-            values = list(getattr(sys, name, None) or [])
-            if not values or all(_CONTROL_DEFAULT_NAME.match(str(v)) for v in values):
-                return None
-            return values
-
-        return cls.from_matrices(*matrices, dt=dt, state_names=labels('state_labels'),
-                                 input_names=labels('input_labels'),
-                                 output_names=labels('output_labels'))
-
-    def to_statespace(self) -> Any:
-        """
-        Return the model as a python-control ``StateSpace`` system, with its names.
-
-        Returns
-        -------
-        control.StateSpace
-            ``dt`` 0 (continuous) or the period; the state, input and output labels are the
-            model's names.
-
-        Raises
-        ------
-        ConfigError
-            Naming ``B`` for a model without inputs (python-control cannot hold one).
-
-        Examples
-        --------
-        >>> import observer_ros.core as oc
-        >>> model = oc.StateSpaceModel.from_matrices([[-1]], [[1]], [[2]], dt=0.0,
-        ...                                          state_names=['speed'])
-        >>> sys = model.to_statespace()
-        >>> sys.dt, sys.state_labels, float(sys.dcgain())
-        (0, ['speed'], 2.0)
-        >>> back = oc.StateSpaceModel.from_statespace(sys)
-        >>> back.state_names, back.input_names, bool((back.c == model.c).all())
-        (('speed',), ('u1',), True)
-
-        """
-        if self.n_inputs == 0:
-            raise ConfigError('B', 'python-control has no state-space systems without inputs '
-                              '(m = 0)')
-        import control  # about a second to import, so only when asked
-        dt = self.dt if self.is_discrete else 0
-        return control.ss(self.a, self.b, self.c, self.d, dt,
-                          states=list(self.state_names), inputs=list(self.input_names),
-                          outputs=list(self.output_names))
+    # The conversions from and to python-control (its labels as the names), with their
+    # docstrings, are those of observer_ros.core.control_conversion.
+    from_statespace = classmethod(control_conversion.from_statespace)
+    to_statespace = control_conversion.to_statespace
 
     def transformed(self, transform: ArrayLike) -> 'StateSpaceModel':
         """

@@ -45,9 +45,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from observer_ros.core.analysis import controllability_matrix, format_modes
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.poles import check_conjugate_pairs, clean_poles
+from observer_ros.core.ranks import controllability_matrix, format_modes
 
 METHODS = ('auto', 'place', 'varga', 'acker', 'direct', 'canonical')
 
@@ -428,7 +428,7 @@ def place(a, b, poles, method: str = 'auto', rtol: float = DEFAULT_RTOL) -> Plac
 
 
 def _uncontrollable_modes(a: np.ndarray, b: np.ndarray) -> tuple:
-    from observer_ros.core.analysis import pbh_lost_modes
+    from observer_ros.core.ranks import pbh_lost_modes
     return pbh_lost_modes(a.T, b.T)
 
 

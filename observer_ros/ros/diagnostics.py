@@ -40,10 +40,11 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
+from observer_ros.app.design_check import configuration_check
 from observer_ros.app.health import (
-    Check, combine, configuration_check, CounterWatch, covariance_values,
-    ESTIMATOR_WARNING_COUNTERS, innovation_values, INPUT_WARNING_COUNTERS, InputMonitor,
-    nis_findings, stale_timeout, WARNING_COUNTERS)
+    Check, combine, CounterWatch, covariance_values, ESTIMATOR_WARNING_COUNTERS,
+    innovation_values, INPUT_WARNING_COUNTERS, InputMonitor, nis_findings, stale_timeout,
+    WARNING_COUNTERS)
 from observer_ros.core.consistency import NisWindow
 
 #: The topic every node reports on (absolute: not namespaced, as ROS expects).

@@ -43,12 +43,14 @@ import numpy as np
 from observer_ros.app.parallel import add_worker_arguments, single_threaded_blas, task_mapper
 from observer_ros.app.run_report import filter_run_section, HtmlReport
 from observer_ros.bags.filter_config import load_kalman_setup
-from observer_ros.bags.identification import resample_period
+from observer_ros.bags.innovation_runs import SignalChoice
+from observer_ros.bags.paired_signals import resample_period
 from observer_ros.bags.signals import SignalSpec
 from observer_ros.bags.tuning import (
-    FAILED_CHECKS_STATUS, ITERATIONS, normalized_squares, SignalChoice, tune_noises, TuningRun)
+    FAILED_CHECKS_STATUS, ITERATIONS, normalized_squares, tune_noises, TuningRun)
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.tuning.als import NoiseStructure, STRUCTURES, WEIGHTINGS
+from observer_ros.core.tuning.als import WEIGHTINGS
+from observer_ros.core.tuning.noise_model import NoiseStructure, STRUCTURES
 from observer_ros.signals import stops_on_signal
 from observer_ros.tools.outputs import run_tool
 

@@ -19,11 +19,11 @@ from typing import Optional
 
 import numpy as np
 
-from observer_ros.core.analysis import format_modes
 from observer_ros.core.errors import DesignError
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.placement import sort_poles
 from observer_ros.core.poles import is_stable
+from observer_ros.core.ranks import format_modes
 
 
 @dataclass(frozen=True)

@@ -27,12 +27,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from observer_ros.core.analysis import format_modes, require_controllable
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.flat_matrices import matrix_from_flat
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.placement import place, sort_poles
 from observer_ros.core.poles import is_stable
+from observer_ros.core.ranks import format_modes, require_controllable
 
 
 @dataclass(frozen=True)

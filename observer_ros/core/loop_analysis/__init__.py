@@ -22,5 +22,6 @@ controller from ``A R + B S = A_cl``, its cross-check), :mod:`~.frequency` (the 
 of two responses on a frequency grid), :mod:`~.transfer_function` (the SISO transfer
 function value) and :mod:`~.closed_loop` (the closed loop's state matrix and poles).
 Observability and controllability of the model itself are in
-:mod:`observer_ros.core.analysis`.
+:mod:`observer_ros.core.ranks` (the rank tests) and :mod:`observer_ros.core.analysis` (the
+observability rule).
 """

@@ -25,7 +25,6 @@ import warnings
 
 import numpy as np
 
-from observer_ros.core.analysis import format_modes
 from observer_ros.core.design.common import ObserverRealization
 from observer_ros.core.errors import DesignError
 from observer_ros.core.loop_analysis.diophantine import diophantine_scaled
@@ -33,6 +32,7 @@ from observer_ros.core.loop_analysis.frequency import frequency_grid, relative_d
 from observer_ros.core.loop_analysis.transfer_function import (
     ControllerTransferFunction, evaluate_zpk, from_zpk, siso_zpk)
 from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.ranks import format_modes
 
 
 #: G_oc and the Diophantine controller of the same closed loop must agree this closely

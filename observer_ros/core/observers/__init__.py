@@ -136,7 +136,7 @@ class ObserverType:
     design : callable
         ``design(model, values, disturbance) -> ObserverDesign or None`` with ``values`` the
         checked arguments by name and ``disturbance`` the
-        :class:`~observer_ros.core.disturbances.DisturbanceModel` that augmented ``model``
+        :class:`~observer_ros.core.disturbance_model.DisturbanceModel` that augmented ``model``
         (None without ``model.disturbances``); None when the values configure no observer
         (no poles, gain or noise given). Raises ConfigError or DesignError naming its
         arguments.

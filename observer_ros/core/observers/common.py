@@ -19,7 +19,6 @@ from typing import Mapping, Optional, Sequence
 
 import numpy as np
 
-from observer_ros.core.analysis import format_modes
 from observer_ros.core.arguments import (
     Argument, array, DOUBLE, matrix_text, seconds, STRING, STRING_ARRAY)
 from observer_ros.core.errors import ConfigError
@@ -27,6 +26,7 @@ from observer_ros.core.estimators.constant_gain import assemble_step, StepMatric
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.placement import METHODS
 from observer_ros.core.poles import parse_poles, poles_meeting_error_spec, slowest_allowed_pole
+from observer_ros.core.ranks import format_modes
 
 #: Largest magnitude of a continuous pole (rad/s): beyond it the sampled designs overflow.
 POLE_LIMIT = 1e9

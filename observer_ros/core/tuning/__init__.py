@@ -16,8 +16,11 @@
 Tuning from recorded data: noise covariances and models, ROS-free.
 
 :mod:`~observer_ros.core.tuning.innovations` pools innovation statistics (autocovariances,
-whiteness, NIS); :mod:`~observer_ros.core.tuning.als` estimates ``Q`` and ``R`` from them by
-autocovariance least squares; :mod:`~observer_ros.core.tuning.subspace` identifies
-``A, B, C, D`` from inputs and outputs (PO-MOESP). The bag tools ``tune_kalman`` and
-``identify`` run them over recordings.
+whiteness, NIS); :mod:`~observer_ros.core.tuning.noise_model` says what autocovariances a
+filter leaves for given ``Q`` and ``R``, and :mod:`~observer_ros.core.tuning.als` estimates
+``Q`` and ``R`` from them by autocovariance least squares;
+:mod:`~observer_ros.core.tuning.subspace` identifies ``A, B, C, D`` from inputs and outputs
+(PO-MOESP) and :mod:`~observer_ros.core.tuning.identified_model` holds the records, the
+model and its fit on held-out data. The bag tools ``tune_kalman`` and ``identify`` run them
+over recordings.
 """

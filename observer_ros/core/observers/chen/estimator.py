@@ -27,7 +27,8 @@ import numpy as np
 from observer_ros.core.discretize import zero_order_hold
 from observer_ros.core.estimators.constant_gain import (
     assemble_step, least_norm_consistent, StepDesign, StepMatrices)
-from observer_ros.core.observers.chen.design import ChenDesign, solve_chen
+from observer_ros.core.observers.chen.design import ChenDesign
+from observer_ros.core.observers.chen.sylvester import solve_chen
 from observer_ros.core.placement import sort_poles
 from observer_ros.core.poles import clean_poles
 

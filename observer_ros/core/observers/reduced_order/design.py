@@ -32,13 +32,14 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from observer_ros.core.analysis import observability_matrix, require_seen
+from observer_ros.core.analysis import require_seen
 from observer_ros.core.design.common import (
     check_given_gain_stable, ObserverDesign, ObserverRealization, require_stable_poles)
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.flat_matrices import matrix_from_flat
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.placement import place_observer
+from observer_ros.core.ranks import observability_matrix
 
 COORDINATES = ('orthonormal', 'observability')
 
