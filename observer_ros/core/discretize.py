@@ -21,7 +21,7 @@ import numpy as np
 import scipy.linalg
 
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.units import NANOSECONDS
+from observer_ros.core.units import NANOSECONDS, seconds_to_ns
 
 
 def _check_interval(dt: float) -> None:
@@ -261,8 +261,11 @@ class IntervalSampler:
         self._first_row = np.ascontiguousarray(np.eye(n_states, size))
         self.alpha = float(max(np.abs(a).sum(axis=0).max(initial=0.0),
                                np.abs(a).sum(axis=1).max(initial=0.0)))
-        reach_ns = (int(SERIES_REACH / self.alpha * NANOSECONDS) if self.alpha > 0.0
-                    else EXACT_GRID_NS)
+        # The reach to the nearest nanosecond (the one rule; half a nanosecond past it is far
+        # inside the series' cut at 2**-54), capped at a second: any reach from the grid up
+        # gives the grid, and a tiny alpha would overflow.
+        reach_ns = (seconds_to_ns(min(SERIES_REACH / self.alpha, 1.0), 'series reach')
+                    if self.alpha > 0.0 else EXACT_GRID_NS)
         #: Multiples of this (ns) are sampled with expm; 1 ms, or the largest power of ten
         #: nanoseconds within the series' reach for a fast model.
         self.grid_ns = (EXACT_GRID_NS if reach_ns >= EXACT_GRID_NS
