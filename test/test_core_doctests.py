@@ -60,7 +60,7 @@ DOCUMENTED_MODULES = (
     'observer_ros.core.observers',
     'observer_ros.core.estimators.constant_gain',
     'observer_ros.core.estimators.intervals',
-    'observer_ros.core.events',
+    'observer_ros.core.events.engine',
     'observer_ros.core.rules',
     'observer_ros.core.estimates',
     'observer_ros.core.estimators.protocol',
