@@ -64,8 +64,10 @@ DOCUMENTED_MODULES = (
     'observer_ros.core.rules',
     'observer_ros.core.estimates',
     'observer_ros.core.estimators.protocol',
+    'observer_ros.core.estimators.vectors',
     'observer_ros.core.observers.kalman.time_varying',
-    'observer_ros.core.streaming',
+    'observer_ros.core.streaming.stream',
+    'observer_ros.core.streaming.recorded',
 )
 
 
