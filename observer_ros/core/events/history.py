@@ -20,6 +20,7 @@ from typing import Optional
 import numpy as np
 
 from observer_ros.core.events.records import Event, HistoryEntry, Row, Source
+from observer_ros.core.rules import in_sequence
 
 
 class History:
@@ -32,6 +33,13 @@ class History:
         if not self.accept(spec, stamp_ns, vector, now_ns):
             return []
         values = vector[spec.order] if spec.order is not None else vector.copy()
+        if not self.queue:  # the common case: process()'s routine for a queue of one
+            previous = self.consumer.stamp_ns
+            if (previous is not None and in_sequence(stamp_ns - previous, self.max_gap_ns)
+                    and self.ready(stamp_ns if self.pairs_at_stamp else previous)):
+                self._sequence += 1
+                event = Event(spec.name, stamp_ns, values, self._sequence, arrival_ns)
+                return self._take_new(event, self.input_for(previous), stamp_ns - previous)
         self._enqueue(spec.name, stamp_ns, values, arrival_ns)
         return self.process(force=False)
 

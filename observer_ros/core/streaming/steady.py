@@ -31,7 +31,7 @@ class SteadyPath:
         Call it when nothing waits (after publishing an estimate): the next measurement then
         costs less. The estimates are the same whether it is called or not.
         """
-        self._steady_key = None
+        self._steady_key = self._prepared_at = None
         if not self._fast:
             return
         stamp = self.estimator.stamp_ns
@@ -42,6 +42,7 @@ class SteadyPath:
         index = inputs.index_at(stamp)
         u = inputs.values[index] if index >= 0 else engine.zero_input
         self.estimator.prepare(u, (self.limits.measurement, self._result_limit))
+        self._prepared_at = stamp
         if self.form != 'current':
             return
         if index >= 0:  # what the engine's input_for would say about the time bases

@@ -123,8 +123,13 @@ class EventStream(SourceUpdates, SteadyPath, RecordedReplay):
         self._fast = (fast_paths and isinstance(estimator, SteadySteps)
                       and not self.engine.keeps_history and estimator.feedthrough is None)
         self._result_limit = min(self.limits.estimate, self.limits.innovation)
+        #: The estimator's NIS is the protocol's (from the innovation and S, as a sample
+        #: computes it when read): left to the sample, off the path to the estimate.
+        self._lazy_nis = type(estimator).nis is Estimator.nis
         self._steady = 0  # steady measurements not yet added to the counters
         self._steady_key: Optional[tuple] = None
+        #: The estimator's stamp when :meth:`prepare` last prepared a step (None: it did not).
+        self._prepared_at: Optional[int] = None
         self._held_input: Optional[tuple] = None  # (u, now_ns) of hold_input
         self._last_measurement_ns: Optional[int] = None  # stamp of the latest measurement
 
@@ -199,6 +204,7 @@ class EventStream(SourceUpdates, SteadyPath, RecordedReplay):
         self.estimator.reset()
         self.engine.queue.clear()
         self.engine.clear_history()
+        self._prepared_at = None
         if not keep_inputs:
             self.engine.clear_inputs()
             self._held_input = self._last_measurement_ns = None
@@ -236,8 +242,10 @@ class EventStream(SourceUpdates, SteadyPath, RecordedReplay):
         check).
         """
         released = self.engine.add_input(stamp_ns, u, now_ns, source)
-        if not released:
-            self.prepare()
+        prepared = self._prepared_at
+        if not released and (prepared is None or prepared != self.estimator.stamp_ns
+                             or stamp_ns <= prepared or self.engine.queue):
+            self.prepare()  # not again for an input after the step prepared: it changes none
         return released
 
     def hold_input(self, u, now_ns: Optional[int] = None) -> list:
@@ -329,7 +337,8 @@ class EventStream(SourceUpdates, SteadyPath, RecordedReplay):
                                  estimator.result if self._fast else None):
             return []
         covariance = estimator.innovation_covariance
-        nis = None if covariance is None else estimator.nis
+        # The protocol's NIS is computed from the innovation and S when first read.
+        nis = None if covariance is None or self._lazy_nis else estimator.nis
         if outputs is None and not row.rerun:
             self.engine.counters['estimates'] += 1
             sample = EstimateSample(row.stamp_ns, estimate, innovation, estimator.covariance,
