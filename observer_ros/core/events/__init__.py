@@ -46,8 +46,8 @@ samples are rows with those ``outputs`` (``None``: every output). With several s
 consumer's state before it (:class:`HistoryEntry`), and the inputs it needs. Then the queue
 is in stamp order (:meth:`EventEngine._enqueue`), and a measurement older than the newest
 processed one (the ``out_of_order`` branch of :meth:`EventEngine._admit`) is no longer
-dropped: :meth:`EventEngine._rerun` inserts it in stamp order (or fuses it with the
-measurement of another source at the same stamp: one update with the outputs of both),
+dropped: the history's re-run (``History._rerun``) inserts it in stamp order (or fuses it
+with the measurement of another source at the same stamp: one update with the outputs of both),
 returns the consumer to its state before it and runs the rows after it again with their
 inputs. What a re-run returns is what the newest row gives: the corrected newest estimate,
 at the newest stamp (a row with ``rerun`` set). A measurement older than the history is
@@ -58,11 +58,20 @@ history no history is kept, a late measurement is dropped (``out_of_order``), an
 is in arrival order, with one exception, the history's rule kept for one row: a measurement
 stamped more than :data:`JUMP_FACTOR` times the interval before it ahead of the previous one
 (an early-stamped outlier, or a real gap) is taken with the consumer's state before it kept
-(:meth:`EventEngine._take`); a measurement stamped between the previous one and it is then
-inserted before it (:meth:`EventEngine._insert_before_newest`): the consumer returns to that
+(``NewestRollback.take``); a measurement stamped between the previous one and it is then
+inserted before it (``NewestRollback._insert_before_newest``): the consumer returns to that
 state, takes the late measurement, then the newest again, and what it returns is the
 corrected newest estimate, at the newest stamp, as with a history. So one early outlier never
 silences the genuine samples after it; once their stamps pass it they follow on again.
+
+The two ways (a history, or the one row kept) are two parts with the same verbs,
+:class:`~observer_ros.core.events.history.History` and
+:class:`~observer_ros.core.events.rollback.NewestRollback`; the engine chooses one when it
+is made (:attr:`EventEngine.timeline`) and asks it, never which way it runs, on each event.
+The other jobs are modules of their own: the value, clock and stamp rules
+(:mod:`~observer_ros.core.events.admission`), the pairing rule
+(:mod:`~observer_ros.core.events.inputs`), recordings (:mod:`~observer_ros.core.events.replay`)
+and the records (:mod:`~observer_ros.core.events.records`).
 """
 
 from observer_ros.core.events.engine import EventEngine

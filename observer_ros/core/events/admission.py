@@ -14,12 +14,11 @@
 
 """The value, clock and stamp rules an event meets on its way in (the engine's admission)."""
 
-import bisect
 from typing import Optional
 
 import numpy as np
 
-from observer_ros.core.events.records import Event, LATE, Source
+from observer_ros.core.events.records import Event, Source
 from observer_ros.core.rules import ahead_of_clock, in_sequence, rows_within, within_limit
 
 
@@ -34,7 +33,7 @@ class Admission:
                 and not ahead_of_clock(stamp_ns, now_ns, tolerance)):
             return True  # the common case in one test; the reasons follow
         what = source.what
-        per = self.per_source.get(source.name) if self.keeps_history else None
+        per = self.timeline.per_source.get(source.name)
         reason = ('malformed' if vector.shape != (source.size,)
                   or not rows_within(vector, source.limit)[0]
                   else 'out_of_range' if not within_limit(vector, source.limit)
@@ -71,7 +70,7 @@ class Admission:
 
         Without a history a repeated stamp is a ``duplicate`` and a small step back is
         ``out_of_order``; with one, a measurement inside the history is :data:`LATE` (to
-        insert, :meth:`_rerun`) unless its source's sample at that stamp is there already.
+        insert) unless its source's sample at that stamp is there already.
         """
         if previous is None:
             return 0
@@ -79,55 +78,13 @@ class Admission:
         step = stamp - previous
         if in_sequence(step, self.max_gap_ns):
             return step
-        if self.keeps_history and -self.max_gap_ns <= step <= 0:
-            return self._admit_late(event, previous)
-        if step == 0:
-            self.counters['duplicate'] += 1
-            self.events.append(('duplicate', f'dropped a measurement with a repeated '
-                                f'stamp ({stamp} ns)'))
-            return None
-        if -self.max_gap_ns <= step < 0:
-            rollback = self._rollback
-            if rollback is not None and stamp > rollback[1].stamp_ns - rollback[1].interval_ns:
-                return LATE  # after a jump ahead: inserted before it (the module notes)
-            self.counters['out_of_order'] += 1
-            self.events.append(('out_of_order', f'dropped a measurement older than the '
-                                f'previous one ({stamp} < {previous} ns)'))
-            return None
+        if -self.max_gap_ns <= step <= 0:  # the part's rule: dropped, or LATE to insert
+            return self.timeline.admit_back(event, previous, step)
         kind = 'restart_backward_jump' if step < 0 else 'restart_gap'
         self.counters[kind] += 1
         if step < 0:  # inputs of the abandoned timeline must not pair with the new one
             self.inputs.drop_after(stamp)
-        if self.keeps_history:  # nothing before the restart is re-run
-            self._retire(len(self.entries))
-            self._base_ns, self._floor_ns = None, stamp
+        self.timeline.restarted(stamp)
         self.events.append((kind, f'time jumped by {step / 1e9:.3f} s; the estimator '
                             f'restarts from this sample'))
         return 0
-
-    def _admit_late(self, event: Event, previous: int) -> Optional[int]:
-        """Apply the stamp rules to a measurement at or before the newest, with a history."""
-        stamp, source = event.stamp_ns, event.source
-        floor = self._floor_ns
-        per = self.per_source[source]
-        if stamp < previous - self.history_ns or (floor is not None and stamp < floor):
-            kind = 'too_old' if self.history_ns else 'out_of_order'
-            self.counters[kind] += 1
-            per[kind] += 1
-            self.events.append((kind, f'dropped a measurement of {source!r} stamped '
-                                f'{(previous - stamp) / 1e9:.6g} s before the newest one, '
-                                f'older than the history ({self.history_ns / 1e9:g} s)'))
-            return None
-        entries = self.entries
-        index = bisect.bisect_left(entries, stamp, key=lambda entry: entry.stamp_ns)
-        if index == len(entries):  # no history to insert into (a failed step cleared it)
-            self.counters['out_of_order'] += 1
-            per['out_of_order'] += 1
-            return None
-        if entries[index].stamp_ns == stamp and source in entries[index].parts:
-            self.counters['duplicate'] += 1
-            per['duplicate'] += 1
-            self.events.append(('duplicate', f'dropped a measurement of {source!r} with a '
-                                f'repeated stamp ({stamp} ns)'))
-            return None
-        return LATE

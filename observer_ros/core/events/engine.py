@@ -14,7 +14,6 @@
 
 """The event engine: stamped events in, rows out, by the parts of the package."""
 
-import bisect
 from collections import Counter
 from typing import Optional, Sequence
 
@@ -25,14 +24,14 @@ from observer_ros.core.events.admission import Admission
 from observer_ros.core.events.history import History
 from observer_ros.core.events.inputs import InputPairing
 from observer_ros.core.events.records import (
-    Event, INPUT, LATE, MEASUREMENT, PREDICTION, Row, RowCollector, Source, SourceStatus)
+    Event, INPUT, MEASUREMENT, PREDICTION, Row, RowCollector, Source, SourceStatus)
 from observer_ros.core.events.replay import RecordedEvents
 from observer_ros.core.events.rollback import NewestRollback
 from observer_ros.core.rules import in_sequence, InputHistory, ValueLimits
 from observer_ros.core.sources import check_sources, default_source, MeasurementSource
 
 
-class EventEngine(Admission, InputPairing, History, NewestRollback, RecordedEvents):
+class EventEngine(Admission, InputPairing, RecordedEvents):
     """
     Turn stamped measurement and input events into rows, by the rules of the module.
 
@@ -78,6 +77,8 @@ class EventEngine(Admission, InputPairing, History, NewestRollback, RecordedEven
         ``(kind, text)`` of notable events since the caller last cleared it.
     keeps_history : bool
         Whether the engine keeps a history (several sources, or ``history_ns`` above 0).
+    timeline : History or NewestRollback
+        The part chosen by it: the history, or the one row kept without one.
     entries : list of HistoryEntry
         The history, in stamp order (empty without one).
 
@@ -126,24 +127,12 @@ class EventEngine(Admission, InputPairing, History, NewestRollback, RecordedEven
         self.sources[INPUT] = Source(INPUT, 'input', n_inputs, self.limits.input, 'an input')
         self.measurement_sources = measured
         self.keeps_history = self.history_ns > 0 or len(measured) > 1
-        self.entries: list = []
-        #: None, or a list that collects each entry leaving the history (its estimate final:
-        #: no later sample re-runs it), oldest first: the in-order estimates of a replay.
-        self.retired: Optional[list] = None
-        #: Without a history: ``(state before the newest row, that row)`` after a jump ahead
-        #: (see the module notes), else None; and the interval of the last row taken.
-        self._rollback: Optional[tuple] = None
-        self._last_interval = 0
-        self._base_ns: Optional[int] = None  # the last entry pruned: the first one's previous
-        self._floor_ns: Optional[int] = None  # a restart: nothing before it is inserted
-        self.per_source = {source.name: Counter() for source in measured}
-        self._last_seen: dict = {}
-        self._max_lag: Counter = Counter()
         self.input_stamped = input_stamped
         self.clock_tolerance_ns = int(clock_tolerance_ns)
         self.consumer = consumer if consumer is not None else RowCollector()
-        self._can_roll_back = (not self.keeps_history and hasattr(self.consumer, 'save')
-                               and hasattr(self.consumer, 'load'))
+        #: The part that keeps what was taken, chosen once: the history, or the one row.
+        self.timeline = (History(self, measured) if self.keeps_history
+                         else NewestRollback(self))
         self.counters: Counter = Counter()
         self.events: list = []
         self.inputs = InputHistory()
@@ -177,19 +166,12 @@ class EventEngine(Admission, InputPairing, History, NewestRollback, RecordedEven
         self.inputs.store(stamp_ns, vector)
         self.inputs_absent = self.autonomous
         previous = self.consumer.stamp_ns
-        rollback = self._rollback
+        timeline = self.timeline
         if previous is None or stamp_ns >= previous - self.max_gap_ns:
             # Not while a backward jump (a looping bag) is under way; with a history, keep
             # the inputs of its rows (without one, of the newest row that may be re-taken).
-            self.inputs.prune(self._oldest_previous() if self.keeps_history
-                              else previous if rollback is None
-                              else rollback[1].stamp_ns - rollback[1].interval_ns)
-        if self.keeps_history and previous is not None and (
-                stamp_ns < previous or self.pairs_at_stamp and stamp_ns == previous):
-            return self._rerun_for_input(stamp_ns) + self.process(force=False)
-        if rollback is not None and stamp_ns < previous:
-            return self._retake_for_input(stamp_ns) + self.process(force=False)
-        return self.process(force=False)
+            self.inputs.prune(timeline.oldest_previous(previous))
+        return timeline.input_arrived(stamp_ns, previous) + self.process(force=False)
 
     def add_measurement(self, stamp_ns: int, y, now_ns: Optional[int] = None,
                         arrival_ns: int = 0, source: str = MEASUREMENT) -> list:
@@ -202,21 +184,8 @@ class EventEngine(Admission, InputPairing, History, NewestRollback, RecordedEven
         spec = self._source(source, 'measurement')
         self.counters['measurements'] += 1
         stamp_ns = int(stamp_ns)
-        vector = np.asarray(y, dtype=float).reshape(-1)  # copied below if it has to wait
-        if self.keeps_history:
-            return self._add_to_history(spec, stamp_ns - spec.latency_ns, vector, now_ns,
-                                        int(arrival_ns))
-        if not self.accept(spec, stamp_ns, vector, now_ns):
-            return []
-        if not self.queue:  # the common case: the queue's routine for a queue of one
-            previous = self.consumer.stamp_ns
-            if (previous is not None and in_sequence(stamp_ns - previous, self.max_gap_ns)
-                    and self.ready(stamp_ns if self.pairs_at_stamp else previous)):
-                produced = self._take(Row(source, stamp_ns, vector, self.input_for(previous),
-                                          stamp_ns - previous, int(arrival_ns)))
-                return produced + self.process(force=False) if self.queue else produced
-        self._enqueue(source, stamp_ns, vector.copy(), int(arrival_ns))
-        return self.process(force=False)
+        vector = np.asarray(y, dtype=float).reshape(-1)  # copied if it is kept
+        return self.timeline.measurement(spec, stamp_ns, vector, now_ns, int(arrival_ns))
 
     def _enqueue(self, source: str, stamp_ns: int, values, arrival_ns: int) -> None:
         """
@@ -226,11 +195,8 @@ class EventEngine(Admission, InputPairing, History, NewestRollback, RecordedEven
         waits for its input is taken oldest first and a late sample goes ahead of it.
         """
         self._sequence += 1
-        event = Event(source, stamp_ns, values, self._sequence, arrival_ns)
-        if self.keeps_history:
-            bisect.insort(self.queue, event, key=lambda e: (e.stamp_ns, e.sequence))
-        else:
-            self.queue.append(event)
+        self.timeline.order(self.queue, Event(source, stamp_ns, values, self._sequence,
+                                              arrival_ns))
 
     def await_input(self, stamp_ns: int, estimate, arrival_ns: int) -> None:
         """Queue, first, an estimate waiting for the input after ``stamp_ns`` (delayed form)."""
@@ -285,17 +251,11 @@ class EventEngine(Admission, InputPairing, History, NewestRollback, RecordedEven
             queue.pop(0)
             if interval is None:
                 continue
-            if self.keeps_history:
-                produced += (self._rerun(event) if interval == LATE
-                             else self._take_new(event, u, interval))
-            elif interval == LATE:
-                produced += self._insert_before_newest(event)
-            elif event.source == PREDICTION:
+            if event.source == PREDICTION:  # the delayed form: never with a history
                 produced += self.consumer.take(Row(event.source, event.stamp_ns, event.values,
                                                    u, interval, event.arrival_ns))
             else:
-                produced += self._take(Row(event.source, event.stamp_ns, event.values, u,
-                                           interval, event.arrival_ns))
+                produced += self.timeline.taken(event, u, interval)
         return produced
 
     def source_report(self, now_ns: Optional[int] = None) -> dict:
@@ -308,20 +268,48 @@ class EventEngine(Admission, InputPairing, History, NewestRollback, RecordedEven
         """
         report = {}
         for source in self.measurement_sources:
-            if self.keeps_history:
-                counts = Counter(self.per_source[source.name])
-                last = self._last_seen.get(source.name)
-            else:
-                counters = self.counters
-                counts = Counter({key: counters[key] for key in (
-                    'malformed', 'out_of_range', 'future_stamp', 'duplicate', 'out_of_order')})
-                counts['received'] = counters['measurements']
-                stamp = self.consumer.stamp_ns
-                last = None if stamp is None else (stamp, 0)
+            counts, last = self.timeline.source_counts(source.name)
             age = None if last is None or not now_ns else now_ns - last[0]
             stale = bool(source.timeout_ns and (last is None or age is not None
                                                 and age > source.timeout_ns))
             report[source.name] = SourceStatus(
                 +counts, None if last is None else last[0], None if last is None else last[1],
-                age, stale, int(self._max_lag[source.name]))
+                age, stale, int(self.timeline.max_lag[source.name]))
         return report
+
+    # --- the part chosen: what the engine says of it --------------------------------------
+
+    @property
+    def entries(self):
+        """The history, in stamp order (empty without one): :class:`HistoryEntry` s."""
+        return self.timeline.entries
+
+    @property
+    def retired(self) -> Optional[list]:
+        """None, or a list that collects each entry leaving the history, oldest first."""
+        return self.timeline.retired
+
+    @retired.setter
+    def retired(self, value: Optional[list]) -> None:
+        self.timeline.retired = value
+
+    @property
+    def per_source(self) -> dict:
+        """``{source name: Counter}`` with a history (empty without one)."""
+        return self.timeline.per_source
+
+    def clear_history(self) -> None:
+        """Forget the history, or the row kept (the consumer starts again)."""
+        self.timeline.clear()
+
+    def history_depth(self) -> tuple:
+        """Return ``(entries, span_ns)``: the history in use, and the stamps it spans."""
+        return self.timeline.depth()
+
+    def jumps_ahead(self, interval_ns: int) -> bool:
+        """Whether a row of this interval is taken with the state before it kept (fast paths)."""
+        return self.timeline.jumps_ahead(interval_ns)
+
+    def took_steadily(self, interval_ns: int) -> None:
+        """Note a row a fast path took itself (not a jump ahead)."""
+        self.timeline.took_steadily(interval_ns)

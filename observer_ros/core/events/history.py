@@ -15,63 +15,146 @@
 """The history of processed measurements and the one re-run routine for late ones."""
 
 import bisect
+from collections import Counter
 from typing import Optional
 
 import numpy as np
 
-from observer_ros.core.events.records import Event, HistoryEntry, Row, Source
+from observer_ros.core.events.records import Event, HistoryEntry, LATE, Row, Source
 from observer_ros.core.rules import in_sequence
 
 
 class History:
-    """The history (several sources or a history span): entries, re-runs, pruning."""
+    """
+    The history of a stream of several sources, or of late measurements (a part).
 
-    def _add_to_history(self, spec: Source, stamp_ns: int, vector: np.ndarray,
-                        now_ns: Optional[int], arrival_ns: int) -> list:
-        """:meth:`add_measurement` with a history: the values in ascending output order."""
+    The engine holds this part when it keeps a history (:attr:`EventEngine.keeps_history`),
+    a :class:`~observer_ros.core.events.rollback.NewestRollback` otherwise; both answer the
+    same verbs (``measurement``, ``input_arrived``, ``order``, ``taken``, ``admit_back``,
+    ``restarted``, ``clear``, ``depth``, ``source_counts``).
+    """
+
+    #: A fast path never takes a row with a history (see :meth:`NewestRollback.jumps_ahead`).
+    can_roll_back = False
+
+    def __init__(self, engine, sources: tuple) -> None:
+        self.engine = engine
+        self.entries: list = []
+        #: None, or a list that collects each entry leaving the history (its estimate final:
+        #: no later sample re-runs it), oldest first: the in-order estimates of a replay.
+        self.retired: Optional[list] = None
+        self._base_ns: Optional[int] = None  # the last entry pruned: the first one's previous
+        self._floor_ns: Optional[int] = None  # a restart: nothing before it is inserted
+        self.per_source = {source.name: Counter() for source in sources}
+        self._last_seen: dict = {}
+        self.max_lag: Counter = Counter()
+
+    def order(self, queue: list, event: Event) -> None:
+        """Queue ``event`` by stamp, then by arrival: the history's ordering rule."""
+        bisect.insort(queue, event, key=lambda e: (e.stamp_ns, e.sequence))
+
+    def input_arrived(self, stamp_ns: int, previous: Optional[int]) -> list:
+        """Re-run the rows a late input changes (see :meth:`_rerun_for_input`)."""
+        if previous is not None and (stamp_ns < previous or self.engine.pairs_at_stamp
+                                     and stamp_ns == previous):
+            return self._rerun_for_input(stamp_ns)
+        return []
+
+    def taken(self, event: Event, u: np.ndarray, interval: int) -> list:
+        """Take an admitted measurement: a new newest entry, or a late one inserted."""
+        return self._rerun(event) if interval == LATE else self._take_new(event, u, interval)
+
+    def admit_back(self, event: Event, previous: int, step: int) -> Optional[int]:
+        """Apply the stamp rules to a measurement at or before the newest, with a history."""
+        engine = self.engine
+        stamp, source = event.stamp_ns, event.source
+        floor = self._floor_ns
+        per = self.per_source[source]
+        if stamp < previous - engine.history_ns or (floor is not None and stamp < floor):
+            kind = 'too_old' if engine.history_ns else 'out_of_order'
+            engine.counters[kind] += 1
+            per[kind] += 1
+            engine.events.append((kind, f'dropped a measurement of {source!r} stamped '
+                                  f'{(previous - stamp) / 1e9:.6g} s before the newest one, '
+                                  f'older than the history ({engine.history_ns / 1e9:g} s)'))
+            return None
+        entries = self.entries
+        index = bisect.bisect_left(entries, stamp, key=lambda entry: entry.stamp_ns)
+        if index == len(entries):  # no history to insert into (a failed step cleared it)
+            engine.counters['out_of_order'] += 1
+            per['out_of_order'] += 1
+            return None
+        if entries[index].stamp_ns == stamp and source in entries[index].parts:
+            engine.counters['duplicate'] += 1
+            per['duplicate'] += 1
+            engine.events.append(('duplicate', f'dropped a measurement of {source!r} with a '
+                                  f'repeated stamp ({stamp} ns)'))
+            return None
+        return LATE
+
+    def restarted(self, stamp_ns: int) -> None:
+        """Nothing before a restart at ``stamp_ns`` is re-run."""
+        self._retire(len(self.entries))
+        self._base_ns, self._floor_ns = None, stamp_ns
+
+    def source_counts(self, name: str) -> tuple:
+        """Return ``(counts, (last stamp, its arrival) or None)`` of a source."""
+        return Counter(self.per_source[name]), self._last_seen.get(name)
+
+    def jumps_ahead(self, interval_ns: int) -> bool:
+        """Never: a row is kept in the history, not rolled back (the fast paths are off)."""
+        return False
+
+    def took_steadily(self, interval_ns: int) -> None:
+        """Nothing to note: the fast paths are off with a history."""
+
+    def measurement(self, spec: Source, stamp_ns: int, vector: np.ndarray,
+                    now_ns: Optional[int], arrival_ns: int) -> list:
+        """Take a sample of :meth:`EventEngine.add_measurement`, its latency off."""
+        stamp_ns -= spec.latency_ns
         self.per_source[spec.name]['received'] += 1
-        if not self.accept(spec, stamp_ns, vector, now_ns):
+        if not self.engine.accept(spec, stamp_ns, vector, now_ns):
             return []
         values = vector[spec.order] if spec.order is not None else vector.copy()
-        if not self.queue:  # the common case: process()'s routine for a queue of one
-            previous = self.consumer.stamp_ns
-            if (previous is not None and in_sequence(stamp_ns - previous, self.max_gap_ns)
-                    and self.ready(stamp_ns if self.pairs_at_stamp else previous)):
-                self._sequence += 1
-                event = Event(spec.name, stamp_ns, values, self._sequence, arrival_ns)
-                return self._take_new(event, self.input_for(previous), stamp_ns - previous)
-        self._enqueue(spec.name, stamp_ns, values, arrival_ns)
-        return self.process(force=False)
+        if not self.engine.queue:  # the common case: process()'s routine for a queue of one
+            previous = self.engine.consumer.stamp_ns
+            if (previous is not None and in_sequence(stamp_ns - previous, self.engine.max_gap_ns)
+                    and self.engine.ready(stamp_ns if self.engine.pairs_at_stamp else previous)):
+                self.engine._sequence += 1
+                event = Event(spec.name, stamp_ns, values, self.engine._sequence, arrival_ns)
+                return self._take_new(event, self.engine.input_for(previous), stamp_ns - previous)
+        self.engine._enqueue(spec.name, stamp_ns, values, arrival_ns)
+        return self.engine.process(force=False)
 
     def _row(self, entry: HistoryEntry, u: np.ndarray, interval: int, rerun: bool) -> Row:
         """Return the row of a history entry: its samples fused in ascending output order."""
         parts = entry.parts
         if len(parts) == 1:
             ((name, (values, arrival)),) = parts.items()
-            outputs = self.sources[name].sorted_outputs
+            outputs = self.engine.sources[name].sorted_outputs
         else:
-            names = sorted(parts, key=lambda key: self.sources[key].sorted_outputs[0])
+            names = sorted(parts, key=lambda key: self.engine.sources[key].sorted_outputs[0])
             pairs = sorted((index, value) for key in names for index, value in
-                           zip(self.sources[key].sorted_outputs, parts[key][0].tolist()))
+                           zip(self.engine.sources[key].sorted_outputs, parts[key][0].tolist()))
             outputs = tuple(index for index, _ in pairs)
             values = np.array([value for _, value in pairs])
             name = '+'.join(names)
             arrival = max(part[1] for part in parts.values())
         return Row(name, entry.stamp_ns, values, u, interval, arrival,
-                   None if len(outputs) == self.n_outputs else outputs, rerun)
+                   None if len(outputs) == self.engine.n_outputs else outputs, rerun)
 
     def _take_entry(self, entry: HistoryEntry, u: np.ndarray, interval: int,
                     rerun: bool) -> list:
         """Save the consumer's state, keep ``entry`` last in the history and take its row."""
-        entry.state = self.consumer.save()
+        entry.state = self.engine.consumer.save()
         self.entries.append(entry)
         try:
-            produced = self.consumer.take(self._row(entry, u, interval, rerun))
+            produced = self.engine.consumer.take(self._row(entry, u, interval, rerun))
         except Exception:  # noqa: B902 - whatever failed, the states kept may not follow on
-            self.clear_history()
+            self.clear()
             raise
         entry.result = produced[-1] if produced else None
-        if self.consumer.stamp_ns is None:  # the consumer restarted from its initial state
+        if self.engine.consumer.stamp_ns is None:  # the consumer restarted from its initial state
             self._retire(len(self.entries))
             self._base_ns = self._floor_ns = None
         return produced
@@ -107,7 +190,7 @@ class History:
         per = self.per_source[event.source]
         per['used'] += 1
         per['reruns'] += 1
-        self._max_lag[event.source] = max(self._max_lag[event.source], newest - stamp)
+        self.max_lag[event.source] = max(self.max_lag[event.source], newest - stamp)
         if stamp >= self._last_seen.get(event.source, (stamp, 0))[0]:
             self._last_seen[event.source] = (stamp, event.arrival_ns)
         return produced
@@ -123,18 +206,18 @@ class History:
         again = entries[index:]
         if first is not None:
             again.insert(0, first)
-        self.consumer.load(entries[index].state)
+        self.engine.consumer.load(entries[index].state)
         del entries[index:]
         previous = entries[-1].stamp_ns if entries else self._base_ns
         produced: list = []
         for entry in again:
-            if previous is None or not self.entries and self.consumer.stamp_ns is None:
-                u, interval = self.zero_input, 0
+            if previous is None or not self.entries and self.engine.consumer.stamp_ns is None:
+                u, interval = self.engine.zero_input, 0
             else:
-                u, interval = self.held_input(previous), entry.stamp_ns - previous
+                u, interval = self.engine.held_input(previous), entry.stamp_ns - previous
             produced = self._take_entry(entry, u, interval, True)
             previous = entry.stamp_ns
-        counters = self.counters
+        counters = self.engine.counters
         counters['reruns'] += 1
         counters['rerun_rows'] += len(again)
         counters['corrected'] += len(produced)
@@ -152,10 +235,11 @@ class History:
         at the first row stamped at or after the input, if that input is held there.
         """
         entries = self.entries
-        if self.pairs_at_stamp and entries and stamp_ns <= entries[-1].stamp_ns:
+        if self.engine.pairs_at_stamp and entries and stamp_ns <= entries[-1].stamp_ns:
             index = bisect.bisect_left(entries, stamp_ns, key=lambda entry: entry.stamp_ns)
-            if self.inputs.stamps[self.inputs.index_at(entries[index].stamp_ns)] == stamp_ns:
-                self.counters['input_reruns'] += 1
+            inputs = self.engine.inputs
+            if inputs.stamps[inputs.index_at(entries[index].stamp_ns)] == stamp_ns:
+                self.engine.counters['input_reruns'] += 1
                 return self._run_again(index, None)
         if not entries or stamp_ns >= entries[-1].stamp_ns:
             return []
@@ -167,16 +251,16 @@ class History:
             if first >= len(entries):
                 return []
             previous = entries[index].stamp_ns
-        index = self.inputs.index_at(previous)
-        if index < 0 or self.inputs.stamps[index] != stamp_ns:
+        index = self.engine.inputs.index_at(previous)
+        if index < 0 or self.engine.inputs.stamps[index] != stamp_ns:
             return []  # a later input is held there: this one changes no row taken
-        self.counters['input_reruns'] += 1
+        self.engine.counters['input_reruns'] += 1
         return self._run_again(first, None)
 
     def _prune(self) -> None:
         """Forget the entries older than the history (the newest is always kept)."""
         entries = self.entries
-        horizon = entries[-1].stamp_ns - self.history_ns if entries else 0
+        horizon = entries[-1].stamp_ns - self.engine.history_ns if entries else 0
         drop = 0
         while drop < len(entries) - 1 and entries[drop].stamp_ns < horizon:
             drop += 1
@@ -190,19 +274,18 @@ class History:
             self.retired.extend(self.entries[:count])
         del self.entries[:count]
 
-    def _oldest_previous(self) -> Optional[int]:
+    def oldest_previous(self, previous: Optional[int]) -> Optional[int]:
         """Return the earliest stamp whose held input a re-run may need (the pruning point)."""
         if self._base_ns is not None:
             return self._base_ns
-        return self.entries[0].stamp_ns if self.entries else self.consumer.stamp_ns
+        return self.entries[0].stamp_ns if self.entries else self.engine.consumer.stamp_ns
 
-    def clear_history(self) -> None:
+    def clear(self) -> None:
         """Forget the history (the consumer starts again: :meth:`EventStream.reset`)."""
         self._retire(len(self.entries))
         self._base_ns = self._floor_ns = None
-        self._rollback, self._last_interval = None, 0
 
-    def history_depth(self) -> tuple:
+    def depth(self) -> tuple:
         """Return ``(entries, span_ns)``: the history in use, and the stamps it spans."""
         entries = self.entries
         if not entries:

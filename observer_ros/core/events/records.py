@@ -73,7 +73,7 @@ class Row(NamedTuple):
     the estimate to predict over the next interval with ``u``. ``outputs``: the ascending
     output indices ``y`` holds (None: every output, in order); ``source`` names its
     source(s), joined by ``+`` when the samples of several sources at one stamp are fused.
-    ``rerun``: the row is taken again after a late measurement (see :meth:`EventEngine._rerun`).
+    ``rerun``: the row is taken again after a late measurement (see ``History._rerun``).
     """
 
     source: str
