@@ -484,3 +484,20 @@ def test_a_measurement_that_follows_on_with_a_history_does_not_wait_in_the_queue
     assert len(queued) == 1  # the first measurement only (nothing to follow on from)
     plain = EventStream(estimator('time_varying'), max_gap_ns=SECOND_NS)
     assert fingerprint(samples) == fingerprint(_loop(plain))
+
+
+def test_the_engine_holds_one_part_for_its_history_chosen_once():
+    # Before: EventEngine was both (mixins) and asked keeps_history on every event.
+    import inspect
+
+    from observer_ros.core.events import engine as engine_module
+    from observer_ros.core.events.history import History
+    from observer_ros.core.events.rollback import NewestRollback
+    from observer_ros.core.sources import MeasurementSource
+    plain = EventEngine(n_outputs=1, n_inputs=1, max_gap_ns=SECOND_NS)
+    late = EventEngine(n_outputs=1, n_inputs=1, max_gap_ns=SECOND_NS,
+                       sources=(MeasurementSource('y', (0,)),), history_ns=SECOND_NS // 2)
+    assert isinstance(plain.timeline, NewestRollback) and isinstance(late.timeline, History)
+    assert not {History, NewestRollback} & set(EventEngine.__mro__)
+    source = inspect.getsource(engine_module.EventEngine)
+    assert source.count('self.keeps_history') == 2  # set once, read once: the choice
