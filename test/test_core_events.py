@@ -416,3 +416,88 @@ def test_an_infinite_measurement_without_limits_is_dropped_on_the_steady_path_to
     assert got == feed(general, events, node_like=False)
     assert got[1]['malformed'] == 2 and 'estimate_reset' not in got[1]
     assert fast.estimator.stamp_ns == SECOND_NS + 9 * PERIOD_NS  # not restarted
+
+
+# --- one event's path without repeated work (issue 29) -----------------------------------
+
+
+def _loop(stream: EventStream, samples: int = 20) -> list:
+    """Feed a node's loop: ``u`` stamped k before ``y`` of k, ``prepare`` after each estimate."""
+    out = []
+    for k in range(samples):
+        stamp = SECOND_NS + k * PERIOD_NS
+        out += stream.add_input(stamp, [0.1 * k])
+        produced = stream.add_measurement(stamp, [math.sin(k)])
+        if produced:
+            stream.prepare()
+        out += produced
+    return out
+
+
+def test_an_input_after_the_prepared_step_does_not_prepare_it_again(monkeypatch):
+    # Before: the node's prepare after an estimate and add_input's prepare each asked the
+    # engine for the input and the estimator for the step: twice per message.
+    stream = EventStream(estimator('full_order'), max_gap_ns=SECOND_NS)
+    calls = []
+    prepare = stream.estimator.prepare
+    monkeypatch.setattr(stream.estimator, 'prepare',
+                        lambda *args: calls.append(args) or prepare(*args))
+    samples = _loop(stream)
+    assert len(calls) == len(samples)  # once per estimate, not again for each input
+    reference = EventStream(estimator('full_order'), max_gap_ns=SECOND_NS, fast_paths=False)
+    assert fingerprint(samples) == fingerprint(_loop(reference))
+
+
+def test_a_late_input_still_prepares_the_step_again():
+    stream = EventStream(estimator('full_order'), max_gap_ns=SECOND_NS)
+    _loop(stream, 3)
+    stream.prepare()
+    key = stream._steady_key
+    stream.add_input(SECOND_NS + 2 * PERIOD_NS, [5.0])  # replaces the input held at the step
+    assert stream._steady_key is not key and stream._steady_key[1].tolist() == [5.0]
+
+
+def test_the_nis_of_a_constant_gain_kalman_filter_is_computed_when_read(monkeypatch):
+    # Before: the stream computed v^T S^-1 v (a solve) for every estimate, read or not.
+    import observer_ros.core.estimators.protocol as protocol
+    solved = []
+    nis = protocol.normalized_innovation_squared
+    monkeypatch.setattr(protocol, 'normalized_innovation_squared',
+                        lambda *args: solved.append(1) or nis(*args))
+    stream = EventStream(estimator('kalman'), max_gap_ns=SECOND_NS, fast_paths=False)
+    samples = _loop(stream)
+    assert not solved
+    assert [s.nis for s in samples[1:]] == [nis(s.innovation, s.innovation_covariance)
+                                            for s in samples[1:]]
+
+
+def test_a_measurement_that_follows_on_with_a_history_does_not_wait_in_the_queue(monkeypatch):
+    # Before: with a history every measurement was queued in stamp order and taken off it.
+    from observer_ros.core.sources import MeasurementSource
+    stream = EventStream(estimator('time_varying'), max_gap_ns=SECOND_NS,
+                         sources=(MeasurementSource('y', (0,)),), history_ns=SECOND_NS // 2)
+    queued = []
+    enqueue = stream.engine._enqueue
+    monkeypatch.setattr(stream.engine, '_enqueue',
+                        lambda *args: queued.append(args) or enqueue(*args))
+    samples = _loop(stream)
+    assert len(queued) == 1  # the first measurement only (nothing to follow on from)
+    plain = EventStream(estimator('time_varying'), max_gap_ns=SECOND_NS)
+    assert fingerprint(samples) == fingerprint(_loop(plain))
+
+
+def test_the_engine_holds_one_part_for_its_history_chosen_once():
+    # Before: EventEngine was both (mixins) and asked keeps_history on every event.
+    import inspect
+
+    from observer_ros.core.events import engine as engine_module
+    from observer_ros.core.events.history import History
+    from observer_ros.core.events.rollback import NewestRollback
+    from observer_ros.core.sources import MeasurementSource
+    plain = EventEngine(n_outputs=1, n_inputs=1, max_gap_ns=SECOND_NS)
+    late = EventEngine(n_outputs=1, n_inputs=1, max_gap_ns=SECOND_NS,
+                       sources=(MeasurementSource('y', (0,)),), history_ns=SECOND_NS // 2)
+    assert isinstance(plain.timeline, NewestRollback) and isinstance(late.timeline, History)
+    assert not {History, NewestRollback} & set(EventEngine.__mro__)
+    source = inspect.getsource(engine_module.EventEngine)
+    assert source.count('self.keeps_history') == 2  # set once, read once: the choice

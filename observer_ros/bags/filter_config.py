@@ -31,8 +31,7 @@ import numpy as np
 import yaml
 
 from observer_ros.app.run_report import write_atomically
-from observer_ros.config import (
-    Configuration, flatten_parameters, load_parameter_file, validate_parameters)
+from observer_ros.config import Configuration, load_parameter_file, validate_parameters
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.observers.kalman import NAME as KALMAN_TYPE
 from observer_ros.core.observers.kalman.design import KalmanDesign
@@ -240,11 +239,6 @@ def model_document(a, b, c, d, dt: float, state_names: Sequence[str],
     if topics:
         section['topics'] = topics
     return {'/**': {'ros__parameters': section}}
-
-
-def flat_parameters(document: dict) -> dict:
-    """Return the flat ``/**`` parameters of a document (for tests and checks)."""
-    return flatten_parameters(document['/**']['ros__parameters'])
 
 
 __all__ = ['KALMAN', 'KalmanSetup', 'load_kalman_setup', 'model_document', 'system_of',

@@ -53,7 +53,7 @@ Designs
     :func:`design_kalman`, :func:`design_sampled_kalman`, :func:`design_feedback` and their
     results (:class:`ObserverDesign`, :class:`ReducedOrderDesign`, :class:`ChenDesign`,
     :class:`KalmanDesign`, :class:`FeedbackDesign`, :class:`ObserverRealization`);
-    :func:`full_order_gain`, :func:`full_order_realization`, :func:`predictor_realization`,
+    :func:`full_order_realization`, :func:`predictor_realization`,
     :func:`measured_first_transform`, :func:`reference_gain`.
 Observer-controller (the analysis in :mod:`observer_ros.core.loop_analysis`)
     :func:`controller_transfer_function`, :func:`diophantine_controller`,
@@ -146,7 +146,7 @@ _EXPORTS = {
     'observer_ros.core.design.common': ('ObserverDesign', 'ObserverRealization',
                                         'predictor_realization'),
     'observer_ros.core.observers.full_order.design': (
-        'design_full_order', 'full_order_gain', 'full_order_realization'),
+        'design_full_order', 'full_order_realization'),
     'observer_ros.core.observers.reduced_order.design': (
         'ReducedOrderDesign', 'design_reduced_order', 'measured_first_transform'),
     'observer_ros.core.observers.chen.design': ('ChenDesign', 'design_chen'),

@@ -24,7 +24,7 @@ parameters.
 """
 
 from dataclasses import dataclass
-from typing import Optional, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -68,8 +68,8 @@ class Disturbance:
     >>> import observer_ros.core as oc
     >>> motor = oc.StateSpaceModel.from_flat([0, 1, 0, -2], [0, 4], [1, 0])
     >>> (drift,) = oc.augment(motor, ['ramp'], names=['drift']).disturbances
-    >>> drift.state_names, drift.first_state, drift.matched_input, drift.describe()
-    (('drift', 'drift_rate'), 2, 0, "ramp 'drift'")
+    >>> drift.state_names, drift.first_state, drift.describe()
+    (('drift', 'drift_rate'), 2, "ramp 'drift'")
 
     """
 
@@ -85,11 +85,6 @@ class Disturbance:
     def n_states(self) -> int:
         """States of the generator (1 or 2)."""
         return len(self.state_names)
-
-    @property
-    def matched_input(self) -> Optional[int]:
-        """The input index of a matched input disturbance (None for the others)."""
-        return self.index if self.entry == 'input' else None
 
     def describe(self) -> str:
         """Return e.g. ``constant 'load'`` or ``sinusoid (5 rad/s) 'hum'``."""

@@ -36,8 +36,7 @@ from typing import Optional, Sequence
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.units import NANOSECONDS
 
-__all__ = ['MeasurementSource', 'check_sources', 'check_subsets', 'default_source',
-           'subset_of']
+__all__ = ['MeasurementSource', 'check_sources', 'check_subsets', 'default_source']
 
 #: Name of the one source of a configuration without sources: every output, as today.
 DEFAULT_SOURCE = 'y'
@@ -91,11 +90,6 @@ class MeasurementSource:
 def default_source(n_outputs: int) -> MeasurementSource:
     """Return the one source of a configuration without sources: every output, named ``y``."""
     return MeasurementSource(DEFAULT_SOURCE, tuple(range(n_outputs)))
-
-
-def subset_of(sources: Sequence[MeasurementSource]) -> tuple:
-    """Return the outputs of several sources together, ascending (a fused update's)."""
-    return tuple(sorted(index for source in sources for index in source.outputs))
 
 
 def _integer(name: str, what: str, value) -> int:

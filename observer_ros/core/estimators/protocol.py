@@ -37,13 +37,20 @@ its covariance.
 """
 
 from abc import ABC, abstractmethod
-import math
 from typing import NamedTuple, Optional
 
 import numpy as np
 
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.model import model_feedthrough  # noqa: F401 - re-exported
+from observer_ros.core.estimators.capabilities import (
+    PinnedInitialState, SteadySteps, SubsetUpdates)
+from observer_ros.core.estimators.vectors import (
+    checked_vector, normalized_innovation_squared, without_feedthrough)
+from observer_ros.core.model import model_feedthrough
+
+__all__ = ['Estimator', 'PinnedInitialState', 'Prediction', 'SteadySteps', 'SubsetUpdates',
+           'checked_vector', 'model_feedthrough', 'normalized_innovation_squared',
+           'without_feedthrough']
 
 
 class Prediction(NamedTuple):
@@ -66,69 +73,6 @@ class Prediction(NamedTuple):
     stamp_ns: int
     estimate: np.ndarray
     covariance: Optional[np.ndarray]
-
-
-def checked_vector(name: str, values, size: int) -> np.ndarray:
-    """
-    Return ``values`` as a float vector of ``size`` finite entries, or raise naming ``name``.
-
-    Raises
-    ------
-    ConfigError
-        Another size, or a value that is not finite.
-
-    """
-    vector = values
-    if type(vector) is not np.ndarray or vector.ndim != 1 or vector.dtype != float:
-        vector = np.asarray(values, dtype=float).reshape(-1)
-    # A finite dot product proves every entry finite (cheaper than isfinite().all()); an
-    # overflow falls through to the exact check.
-    if vector.size != size or (not math.isfinite(vector @ vector)
-                               and not np.isfinite(vector).all()):
-        raise ConfigError(name, f'expected {size} finite values, got {vector.tolist()}')
-    return vector
-
-
-def normalized_innovation_squared(innovation, covariance: np.ndarray) -> float:
-    """Return ``v^T S^-1 v`` (inf when ``S`` is singular)."""
-    innovation = np.asarray(innovation, dtype=float)
-    try:
-        return float(innovation @ np.linalg.solve(covariance, innovation))
-    except np.linalg.LinAlgError:
-        return math.inf
-
-
-def without_feedthrough(d: np.ndarray, y: np.ndarray, u_now: np.ndarray,
-                        outputs: Optional[tuple] = None) -> np.ndarray:
-    """
-    Return ``y - D u_now``: what the state alone gives of a measurement (``C x``, plus noise).
-
-    The one place a feedthrough is taken off a measurement; every estimator then runs on
-    it as on a model with ``D = 0`` (innovation ``y - C x_prior - D u_now``, the reduced-order
-    and Chen reconstructions from ``y - D u_now``).
-
-    Parameters
-    ----------
-    d : numpy.ndarray, shape (p, m)
-    y : numpy.ndarray, shape (p,) or (q,)
-        Every output, or the ``outputs`` alone.
-    u_now : numpy.ndarray, shape (m,)
-        The input in effect at the measurement's stamp.
-    outputs : tuple of int, optional
-        The outputs ``y`` holds (ascending); None: every output.
-
-    Examples
-    --------
-    >>> d = np.array([[0.5], [2.0]])
-    >>> without_feedthrough(d, np.array([1.0, 1.0]), np.array([2.0])).tolist()
-    [0.0, -3.0]
-    >>> without_feedthrough(d, np.array([1.0]), np.array([2.0]), (1,)).tolist()
-    [-3.0]
-
-    """
-    if outputs is not None:
-        d = d[list(outputs)]
-    return y - d @ u_now
 
 
 class Estimator(ABC):
@@ -313,94 +257,3 @@ class Estimator(ABC):
 
     def try_intervals(self, intervals_ns) -> None:
         """Design (or sample) for each interval now; raise what a sample would raise."""
-
-
-class PinnedInitialState:
-    """
-    ``initial_state`` of an estimator that may be pinned: kept checked in ``_pinned``.
-
-    None means the first measurement initialises the estimate (the time-varying filter then
-    starts from a zero prior). Mixed in before :class:`Estimator` by both engines.
-    """
-
-    _pinned: Optional[np.ndarray] = None
-    n_states: int
-
-    @property
-    def initial_state(self) -> Optional[np.ndarray]:
-        """The pinned initial estimate, or None when the first measurement initialises it."""
-        return None if self._pinned is None else self._pinned.copy()
-
-    @initial_state.setter
-    def initial_state(self, values) -> None:
-        self._pinned = (None if values is None else
-                        checked_vector('initial_state', values, self.n_states))
-
-
-class SteadySteps(ABC):
-    """
-    Fast paths an estimator may offer (a capability; the stream asks with ``isinstance``).
-
-    Each gives the numbers :meth:`Estimator.advance` gives, bit for bit: the stream uses them
-    as a private optimisation, and its tests hold them equal to the general path.
-    """
-
-    @property
-    @abstractmethod
-    def result(self) -> Optional[np.ndarray]:
-        """``[x_hat; innovation]`` of the last step when the estimator keeps one, or None."""
-
-    @abstractmethod
-    def prepare(self, u: np.ndarray, limits: Optional[tuple] = None) -> None:
-        """Make the next step's known part now, with the input ``u`` held over it."""
-
-    @abstractmethod
-    def advance_prepared(self, stamp_ns: int, y: float, u: np.ndarray) -> Optional[tuple]:
-        """Take a prepared steady one-output step: ``(result, bounded)``, or None."""
-
-    @abstractmethod
-    def advance_many(self, stamps_ns, outputs, inputs) -> tuple:
-        """Run many samples at once: ``(estimates, innovations)``, as advance one by one."""
-
-
-class SubsetUpdates(ABC):
-    """
-    Updates with some of the outputs: several measurement sources, each at its own rate.
-
-    A capability (the stream asks with ``isinstance``). ``outputs`` is a tuple of ascending
-    output indices; the empty tuple predicts over the interval without a correction (a
-    predict-only source). The estimate, covariance and stamps are the ones
-    :meth:`Estimator.advance` keeps, so updates with all outputs and with some of them
-    follow each other freely; after an update with some outputs, :attr:`Estimator.innovation`
-    and :attr:`Estimator.innovation_covariance` have their size.
-    """
-
-    def several_sources_problem(self) -> Optional[str]:
-        """
-        Say why this estimator takes no several sources at all (None: it does).
-
-        An estimator whose implementation can update with some outputs may still be made
-        for a design that needs every output at each update (a reduced-order observer); it
-        says so here, and a configuration of several sources is refused with that reason.
-        """
-        return None
-
-    @abstractmethod
-    def subset_problem(self, outputs: tuple) -> Optional[str]:
-        """
-        Say why an update from ``outputs`` alone cannot be made (None: it can).
-
-        Asked at start-up for each source (:func:`~observer_ros.core.sources.check_subsets`):
-        for a design made per subset of outputs, an unobservable (or undetectable) subset,
-        naming the modes the outputs cannot see.
-        """
-
-    @abstractmethod
-    def advance_outputs(self, stamp_ns: int, y: np.ndarray, u: np.ndarray,
-                        outputs: tuple) -> np.ndarray:
-        """
-        Take the values ``y`` of ``outputs`` (checked already); return the estimate.
-
-        With every output this is :meth:`Estimator.advance` exactly; with none, a
-        prediction to ``stamp_ns``.
-        """

@@ -98,34 +98,4 @@ def design_full_order(model: StateSpaceModel, poles=None, gain=None,
         realization=predictor_realization(model, result.gain))
 
 
-def full_order_gain(model: StateSpaceModel, poles, method: str = 'auto') -> np.ndarray:
-    """
-    Shortcut returning only ``L`` from :func:`design_full_order`.
-
-    Parameters
-    ----------
-    model : StateSpaceModel
-    poles : array_like of complex, shape (n,)
-    method : str
-
-    Returns
-    -------
-    numpy.ndarray, shape (n, p)
-
-    Raises
-    ------
-    ConfigError, DesignError
-        As :func:`design_full_order`.
-
-    Examples
-    --------
-    >>> import observer_ros.core as oc
-    >>> model = oc.StateSpaceModel.from_matrices([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
-    >>> oc.full_order_gain(model, [-8, -9]).round(6).ravel().tolist()
-    [17.0, 72.0]
-
-    """
-    return design_full_order(model, poles=poles, method=method).gain
-
-
-__all__ = ['design_full_order', 'full_order_gain', 'full_order_realization']
+__all__ = ['design_full_order', 'full_order_realization']
