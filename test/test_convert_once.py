@@ -23,10 +23,12 @@ built once; the latency-within-history rule checked in one place.
 
 import re
 
+import numpy as np
 import pytest
 
 from conftest import CONFIG_DIR, REPOSITORY
 from observer_ros.config import load_parameter_file, ObserverSetup, validate_parameters
+import observer_ros.config.feedback as config_feedback
 import observer_ros.config.observer as config_observer
 import observer_ros.config.sources as config_sources
 from observer_ros.core import poles
@@ -171,3 +173,85 @@ def test_the_history_within_the_gap_rule_is_the_cores_alone():
         validate_parameters({**MOTOR, 'observer.history': 1.5, 'observer.max_gap': 1.0},
                             node='observer')
     assert not hasattr(config_sources, 'check_history')
+
+
+#: The motor with a state feedback and no observer (the feedback node's configuration).
+SERVO = {key: value for key, value in MOTOR.items() if key != 'observer.poles'}
+
+
+def _recording(monkeypatch, module, name, received):
+    """Record the poles each call of ``module.name`` receives (its second argument)."""
+    original = getattr(module, name)
+
+    def receiving(model, *args, **kwargs):
+        received.append(args)
+        return original(model, *args, **kwargs)
+
+    monkeypatch.setattr(module, name, receiving)
+
+
+def _recording_parse(monkeypatch, parsed):
+    parse_pole = poles.parse_pole
+
+    def recording_parse(text, parameter='poles'):
+        parsed.append(text)
+        return parse_pole(text, parameter)
+
+    monkeypatch.setattr(poles, 'parse_pole', recording_parse)
+
+
+def test_the_feedback_poles_reach_the_design_as_the_one_complex_array_made_from_the_numbers(
+        monkeypatch):
+    received, parsed = [], []
+    _recording(monkeypatch, config_feedback, 'design_feedback', received)
+    _recording_parse(monkeypatch, parsed)
+    system = validate_parameters({**SERVO, 'feedback.poles': [-4.0, -5]},
+                                 node='state_feedback')
+    converted = system.sections.feedback.poles
+    assert isinstance(converted, np.ndarray) and converted.dtype == complex
+    assert converted.tolist() == [-4, -5]
+    assert len(received) == 1 and received[0][0] is converted  # handed on, not copied
+    assert parsed == [-4.0, -5]  # each number parsed once, as a number: never a text
+    assert system.sections.parameters['feedback.poles'] == ['-4.0', '-5']  # a file's form
+    assert sorted(system.feedback.design.achieved_poles.real) == pytest.approx([-5.0, -4.0])
+
+
+def test_the_integral_poles_are_converted_once_from_the_numbers_given_too(monkeypatch):
+    received, parsed = [], []
+    _recording(monkeypatch, config_feedback, 'design_integral', received)
+    _recording_parse(monkeypatch, parsed)
+    system = validate_parameters({**SERVO, 'feedback.poles': ['-4', -5.0],
+                                  'feedback.integral_poles': [-6.0]}, node='state_feedback')
+    section = system.sections.feedback
+    assert section.integral.poles.dtype == complex and section.integral.poles.tolist() == [-6]
+    assert parsed == ['-4', -5.0, -6.0]  # texts parsed, numbers taken as numbers, once each
+    (_, all_poles, _, _, _), = received
+    assert all_poles.tolist() == [-4, -5, -6]
+    assert sorted(system.feedback.integral.achieved_poles.real) == pytest.approx([-6, -5, -4])
+
+
+@pytest.mark.parametrize('change, message', [
+    ({'feedback.poles': ['-4', 'x']}, r"^feedback.poles: cannot read 'x' as a pole"),
+    ({'feedback.poles': [-4.0, -5.0], 'feedback.integral_poles': ['y']},
+     r"^feedback.integral_poles: cannot read 'y' as a pole"),
+    ({'feedback.poles': [-4.0, -5.0], 'feedback.integral_poles': [-6.0, -7.0]},
+     r'^feedback.integral_poles: expected 1 poles \(one per integrated output\), got 2$'),
+    ({'feedback.poles': [-4.0]}, r'^feedback.poles: expected 2 poles, got 1$'),
+    ({'feedback.poles': [-4.0, 2e9]}, r'^feedback.poles: poles .* exceed 1e\+09 in magnitude'),
+    ({'feedback.gain': [1.0, 2.0], 'feedback.poles': [-4.0, -5.0]},
+     r'^feedback.gain: give either feedback.gain or feedback.poles, not both$'),
+    ({'feedback.gain': [1.0, 2.0], 'feedback.integral_poles': [-6.0]},
+     r'^feedback.integral_poles: the integral poles are placed with feedback.poles'),
+    ({'feedback.integral_poles': [-6.0]},
+     r'^feedback.poles: integral action needs the state feedback too'),
+])
+def test_the_converted_feedback_poles_are_refused_naming_their_parameter(change, message):
+    with pytest.raises(ConfigError, match=message):
+        validate_parameters({**SERVO, **change}, node='state_feedback')
+
+
+def test_feedback_without_poles_or_gain_is_none_and_empty_poles_are_an_empty_array():
+    system = validate_parameters(SERVO, node='state_feedback')
+    assert system.feedback is None
+    assert system.sections.feedback.poles.shape == (0,)
+    assert system.sections.feedback.integral.poles.shape == (0,)
