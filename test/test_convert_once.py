@@ -33,6 +33,7 @@ import observer_ros.config.observer as config_observer
 import observer_ros.config.sources as config_sources
 from observer_ros.core import poles
 from observer_ros.core.errors import ConfigError
+from observer_ros.core.sources import check_sources, MeasurementSource
 import observer_ros.core.observers.full_order as full_order
 from observer_ros.core.units import NANOSECONDS, rate_to_period_ns, seconds_to_ns
 
@@ -255,3 +256,69 @@ def test_feedback_without_poles_or_gain_is_none_and_empty_poles_are_an_empty_arr
     assert system.feedback is None
     assert system.sections.feedback.poles.shape == (0,)
     assert system.sections.feedback.integral.poles.shape == (0,)
+
+
+#: The wheeled base's two sources (test_sources_nodes.BASE): wheels and a late camera.
+TWO_SOURCES = {
+    'model.A': [0.0, 1.0, 0.0, 0.0], 'model.B': [0.0, 1.0], 'model.C': [1.0, 0.0, 0.0, 1.0],
+    'model.output_names': ['camera_x', 'wheel_v'], 'observer.type': 'kalman',
+    'observer.time_varying': True, 'observer.process_noise': [0.0, 1.0],
+    'observer.history': 0.2, 'observer.sources': ['wheels', 'camera'],
+    'sources.wheels.fields': ['velocity.wheel'], 'sources.wheels.outputs': ['wheel_v'],
+    'sources.wheels.measurement_noise': [1e-2],
+    'sources.camera.type': 'pose_stamped',
+    'sources.camera.fields': ['pose.position.x', 'pose.position.y'],
+    'sources.camera.outputs': ['camera_x', 'wheel_v'], 'sources.camera.latency': 0.05}
+
+
+@pytest.mark.parametrize('sources, match', [
+    ((MeasurementSource('a', (0,)), MeasurementSource('b', (0, 1))),
+     r"^sources.b.outputs: output y1 is carried by sources 'a' and 'b'; each output belongs "
+     r'to one source'),
+    ((MeasurementSource('a', (1, 1)),),
+     r"^sources.a.outputs: output y2 is named twice in source 'a'; each output belongs to "
+     r'one source, once'),
+    ((MeasurementSource('a', (0, 2)),), r'^sources.a.outputs: output 2 is no output of the '
+     r'model \(0 ... 1'),
+    ((MeasurementSource('a', ()),), r"^sources.a.outputs: expected at least one output"),
+])
+def test_the_cores_source_check_names_the_outputs_of_the_source_at_fault(sources, match):
+    with pytest.raises(ConfigError, match=match):
+        check_sources(sources, 2)
+
+
+@pytest.mark.parametrize('change, message', [
+    ({}, r"^sources.camera.outputs: output wheel_v is carried by sources 'wheels' and "
+     r"'camera'; each output belongs to one source \(two sensors of one quantity are two "
+     r'outputs\)$'),
+    ({'sources.camera.outputs': ['camera_x', 'camera_x']},
+     r"^sources.camera.outputs: output camera_x is named twice in source 'camera'"),
+])
+def test_each_output_in_one_source_is_the_cores_rule_named_by_its_parameter(change, message):
+    with pytest.raises(ConfigError, match=message):
+        validate_parameters({**TWO_SOURCES, **change}, node='observer')
+
+
+def test_an_output_in_no_source_is_the_cores_rule_named_by_observer_sources():
+    camera_only = {name: value for name, value in TWO_SOURCES.items()
+                   if not name.startswith('sources.wheels.')}
+    with pytest.raises(ConfigError, match=r"^observer.sources: outputs \['wheel_v'\] belong to "
+                       r'no source; expected every output of the model in one source$'):
+        validate_parameters({**camera_only, 'observer.sources': ['camera'],
+                             'sources.camera.fields': ['pose.position.x'],
+                             'sources.camera.outputs': ['camera_x']}, node='observer')
+
+
+#: Sentences of the rules about sources that the core's check_sources alone says.
+SOURCE_RULES = ('each output belongs to one source', 'belong to no source',
+                'longer than the history', 'is named twice in source')
+
+
+def test_the_rules_of_the_sources_are_written_in_the_core_alone():
+    written = {}
+    for path in sorted(PACKAGE.rglob('*.py')):
+        text = path.read_text(encoding='utf-8')
+        for sentence in SOURCE_RULES:
+            if sentence in text:
+                written.setdefault(sentence, []).append(path.relative_to(PACKAGE).as_posix())
+    assert written == {sentence: ['core/sources.py'] for sentence in SOURCE_RULES}

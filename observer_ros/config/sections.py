@@ -196,11 +196,12 @@ class Binding(Mapping):
 
         An error about no bound argument (an unobservable pair names none) is charged to
         ``fallback``: the parameter whose value led to it. An error that names one of the
-        bound parameters already keeps it.
+        bound parameters already keeps it, and so does one naming a measurement source's
+        setting (``sources.<name>.outputs``, as the core's source check names it).
         """
-        argument = getattr(error, 'parameter', '')
+        argument = getattr(error, 'parameter', '') or ''
         reason = getattr(error, 'reason', None) or str(error)
-        if argument in self._parameters.values():
+        if argument in self._parameters.values() or argument.startswith(SOURCES_PREFIX):
             return ConfigError(argument, reason)
         return ConfigError(self._parameters.get(argument) or fallback, reason)
 
