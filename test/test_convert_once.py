@@ -27,14 +27,15 @@ import numpy as np
 import pytest
 
 from conftest import CONFIG_DIR, REPOSITORY
+from observer_ros.bags.replay import load_system
 from observer_ros.config import load_parameter_file, ObserverSetup, validate_parameters
 import observer_ros.config.feedback as config_feedback
 import observer_ros.config.observer as config_observer
 import observer_ros.config.sources as config_sources
 from observer_ros.core import poles
 from observer_ros.core.errors import ConfigError
-from observer_ros.core.sources import check_sources, MeasurementSource
 import observer_ros.core.observers.full_order as full_order
+from observer_ros.core.sources import check_sources, MeasurementSource
 from observer_ros.core.units import NANOSECONDS, rate_to_period_ns, seconds_to_ns
 
 PACKAGE = REPOSITORY / 'observer_ros'
@@ -280,7 +281,7 @@ TWO_SOURCES = {
      r'one source, once'),
     ((MeasurementSource('a', (0, 2)),), r'^sources.a.outputs: output 2 is no output of the '
      r'model \(0 ... 1'),
-    ((MeasurementSource('a', ()),), r"^sources.a.outputs: expected at least one output"),
+    ((MeasurementSource('a', ()),), r'^sources.a.outputs: expected at least one output'),
 ])
 def test_the_cores_source_check_names_the_outputs_of_the_source_at_fault(sources, match):
     with pytest.raises(ConfigError, match=match):
@@ -322,3 +323,25 @@ def test_the_rules_of_the_sources_are_written_in_the_core_alone():
             if sentence in text:
                 written.setdefault(sentence, []).append(path.relative_to(PACKAGE).as_posix())
     assert written == {sentence: ['core/sources.py'] for sentence in SOURCE_RULES}
+
+
+#: The motor with neither observer poles, gain nor noises: no observer.
+NO_OBSERVER = SERVO
+
+
+def test_the_need_for_an_observer_is_one_rule_that_names_who_needs_it():
+    system = validate_parameters(NO_OBSERVER)
+    assert system.observer is None
+    expected = (r'^observer.poles: no observer is configured: {} needs observer.poles, '
+                r'observer.gain or the Kalman noise covariances$')
+    with pytest.raises(ConfigError, match=expected.format('the stream')):
+        system.make_stream()
+    with pytest.raises(ConfigError, match=expected.format('replay')):
+        load_system(system)
+    with pytest.raises(ConfigError, match=expected.format('the observer node')):
+        system.required_observer('the observer node')
+    full = validate_parameters(MOTOR)
+    assert full.required_observer('replay') is full.observer
+    written = [path.relative_to(PACKAGE).as_posix() for path in sorted(PACKAGE.rglob('*.py'))
+               if 'or the Kalman noise' in path.read_text(encoding='utf-8')]
+    assert written == ['config/configuration.py']

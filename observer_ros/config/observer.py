@@ -393,4 +393,3 @@ class ObserverSetup:
         """Whether the stream keeps a history (several sources, or ``observer.history``)."""
         return self.history_ns > 0 or self.sources is not None and len(
             self.sources.sources) > 1
-
