@@ -238,3 +238,21 @@ def test_the_configuration_answers_what_the_other_code_asks():
     assert configuration.make_stream().estimator.n_states == 2
     with pytest.raises(ConfigError, match='^observer.poles: no observer is configured'):
         validate_parameters(MOTOR, node='plant_simulator').make_stream()
+
+
+def test_the_bindings_and_the_settings_by_name_are_one_read_only_mapping():
+    from observer_ros.config import sections
+    for kind in (sections.Binding, sections.SettingsByName, sections.TopicsSection,
+                 sections.SourcesSection):
+        assert issubclass(kind, sections.ReadOnlyMapping)
+        for method in ('__init__', '__getitem__', '__iter__', '__len__'):
+            assert getattr(kind, method) is getattr(sections.ReadOnlyMapping, method), (
+                kind, method)
+    given = {'poles': 'observer.poles'}
+    binding = sections.Binding(given)
+    given['gain'] = 'observer.gain'  # a copy: the caller's dict changes nothing
+    assert dict(binding) == {'poles': 'observer.poles'} and len(binding) == 1
+    joined = binding | {'gain': 'feedback.gain'}
+    assert dict(joined) == {'poles': 'observer.poles', 'gain': 'feedback.gain'}
+    with pytest.raises(TypeError):
+        binding['poles'] = 'feedback.poles'

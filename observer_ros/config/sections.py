@@ -157,7 +157,28 @@ def unknown_parameter(name: str, known: Iterable[str]) -> str:
     return f'unknown parameter{guess} (every parameter: {PARAMETERS_PAGE})'
 
 
-class Binding(Mapping):
+class ReadOnlyMapping(Mapping):
+    """
+    A read-only mapping of a copy of the one given.
+
+    The one base of :class:`Binding` and :class:`SettingsByName`, which differ only in
+    what they add.
+    """
+
+    def __init__(self, items: Mapping[str, Any]) -> None:
+        self._items = dict(items)
+
+    def __getitem__(self, key: str) -> Any:
+        return self._items[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._items)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+
+class Binding(ReadOnlyMapping):
     """
     Which parameter each argument of a core call stands for: ``{argument: parameter}``.
 
@@ -175,20 +196,8 @@ class Binding(Mapping):
 
     """
 
-    def __init__(self, parameters: Mapping[str, str]) -> None:
-        self._parameters = dict(parameters)
-
-    def __getitem__(self, argument: str) -> str:
-        return self._parameters[argument]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._parameters)
-
-    def __len__(self) -> int:
-        return len(self._parameters)
-
     def __or__(self, other: Mapping[str, str]) -> 'Binding':
-        return Binding({**self._parameters, **other})
+        return Binding({**self._items, **other})
 
     def error(self, error: Exception, fallback: str) -> ConfigError:
         """
@@ -201,9 +210,9 @@ class Binding(Mapping):
         """
         argument = getattr(error, 'parameter', '') or ''
         reason = getattr(error, 'reason', None) or str(error)
-        if argument in self._parameters.values() or argument.startswith(SOURCES_PREFIX):
+        if argument in self._items.values() or argument.startswith(SOURCES_PREFIX):
             return ConfigError(argument, reason)
-        return ConfigError(self._parameters.get(argument) or fallback, reason)
+        return ConfigError(self._items.get(argument) or fallback, reason)
 
     @contextmanager
     def charged(self, fallback: str, numeric: bool = False) -> Iterator[None]:
@@ -487,20 +496,8 @@ class TopicSettings:
         return entry is not None and entry.stamped
 
 
-class SettingsByName(Mapping):
+class SettingsByName(ReadOnlyMapping):
     """A section kept by name (a topic, a source): a read-only mapping of its settings."""
-
-    def __init__(self, settings: Mapping[str, Any]) -> None:
-        self._settings = dict(settings)
-
-    def __getitem__(self, name: str) -> Any:
-        return self._settings[name]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._settings)
-
-    def __len__(self) -> int:
-        return len(self._settings)
 
 
 class TopicsSection(SettingsByName):
