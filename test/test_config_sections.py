@@ -66,7 +66,10 @@ def test_a_section_field_has_the_type_of_its_parameter():
         for item in fields(section):
             if PARAMETER in item.metadata:
                 spec = PARAMETER_SPECS[item.metadata[PARAMETER]]
-                assert item.type is FIELD_TYPES[spec.value_type], (section, item.name)
+                # a parameter with a parse is held converted (a pole list: a complex array)
+                expected = np.ndarray if spec.parse is not None else FIELD_TYPES[
+                    spec.value_type]
+                assert item.type is expected, (section, item.name)
             elif SECTION in item.metadata and hasattr(item.metadata[SECTION], 'bindings'):
                 check(item.metadata[SECTION])
     check(Sections)
@@ -80,7 +83,7 @@ def test_the_sections_hold_the_checked_values_by_the_cores_names():
     assert sections.parameters['observer.poles'] == ['-8', '-9']  # a parameter file's form
     assert sections.plant.samples == 7
     assert sections.topics['u_cmd'].limit == 1e9
-    assert sections.feedback.integral.poles == []
+    assert sections.feedback.integral.poles.shape == (0,)  # converted too: an empty array
     assert ObserverSection.binding()['poles'] == 'observer.poles'
 
 
@@ -121,7 +124,8 @@ def test_observer_poles_are_checked_once_and_parsed_once_on_the_way_to_the_estim
     assert stream.add_measurement(2 * 10 ** 7, [0.2])
     assert [name for name in checked if name.endswith('poles')].count('observer.poles') == 1
     assert 'poles' not in checked  # the type takes the checked values as they are
-    assert parsed == [['-8', '-9']]
+    # each pole parameter converted once: observer.poles, feedback.poles, integral_poles
+    assert parsed == [['-8', '-9'], [], []]
 
 
 def test_the_continuous_observer_is_designed_again_for_each_new_interval():
@@ -234,3 +238,21 @@ def test_the_configuration_answers_what_the_other_code_asks():
     assert configuration.make_stream().estimator.n_states == 2
     with pytest.raises(ConfigError, match='^observer.poles: no observer is configured'):
         validate_parameters(MOTOR, node='plant_simulator').make_stream()
+
+
+def test_the_bindings_and_the_settings_by_name_are_one_read_only_mapping():
+    from observer_ros.config import sections
+    for kind in (sections.Binding, sections.SettingsByName, sections.TopicsSection,
+                 sections.SourcesSection):
+        assert issubclass(kind, sections.ReadOnlyMapping)
+        for method in ('__init__', '__getitem__', '__iter__', '__len__'):
+            assert getattr(kind, method) is getattr(sections.ReadOnlyMapping, method), (
+                kind, method)
+    given = {'poles': 'observer.poles'}
+    binding = sections.Binding(given)
+    given['gain'] = 'observer.gain'  # a copy: the caller's dict changes nothing
+    assert dict(binding) == {'poles': 'observer.poles'} and len(binding) == 1
+    joined = binding | {'gain': 'feedback.gain'}
+    assert dict(joined) == {'poles': 'observer.poles', 'gain': 'feedback.gain'}
+    with pytest.raises(TypeError):
+        binding['poles'] = 'feedback.poles'

@@ -375,10 +375,7 @@ def load_system(parameters: Union[str, os.PathLike, Configuration]) -> Configura
     """
     system = parameters if isinstance(parameters, Configuration) else validate_parameters(
         load_parameter_file(str(parameters)), strict=True)
-    if system.observer is None:
-        from observer_ros.core.errors import ConfigError
-        raise ConfigError('observer.poles', 'replay needs an observer: observer.poles, '
-                          'observer.gain or the Kalman noise covariances')
+    system.required_observer('replay')
     return system
 
 

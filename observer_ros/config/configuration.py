@@ -109,6 +109,25 @@ class Configuration:
         """The complete checked parameter mapping, for writing a parameter file."""
         return self.sections.parameters
 
+    def required_observer(self, user: str) -> ObserverSetup:
+        """
+        Return the observer's setup, which ``user`` (``'replay'``) cannot do without.
+
+        The one place of the rule that a user of the observer needs one configured: the
+        stream, the bag replay and the observer node ask it.
+
+        Raises
+        ------
+        ConfigError
+            ``observer.poles``: no observer is configured, naming ``user``.
+
+        """
+        if self.observer is None:
+            raise ConfigError('observer.poles', f'no observer is configured: {user} needs '
+                              f'observer.poles, observer.gain or the Kalman noise '
+                              f'covariances')
+        return self.observer
+
     def make_stream(self) -> EventStream:
         """
         Build the observer's :class:`EventStream` (:meth:`ObserverSetup.make_stream`).
@@ -116,13 +135,10 @@ class Configuration:
         Raises
         ------
         ConfigError
-            ``observer.poles``: no observer is configured.
+            ``observer.poles``: no observer is configured (:meth:`required_observer`).
 
         """
-        if self.observer is None:
-            raise ConfigError('observer.poles', 'no observer is configured: give '
-                              'observer.poles, observer.gain or the Kalman noises')
-        return self.observer.make_stream()
+        return self.required_observer('the stream').make_stream()
 
 
 def validate_parameters(params: Mapping[str, Any], strict: bool = False,

@@ -35,7 +35,6 @@ from observer_ros.core.design.integral import design_integral, IntegralDesign
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.flat_matrices import matrix_from_flat, vector_from_flat
 from observer_ros.core.model import StateSpaceModel
-from observer_ros.core.observers.common import parsed_poles
 
 
 @dataclass(frozen=True)
@@ -120,27 +119,27 @@ def _integral(section: FeedbackSection, model: StateSpaceModel, poles,
     own = integral.binding()
     binding = ModelSection.binding() | section.binding() | own
     integral_gain = integral.integral_gain or None
-    if not integral.poles and integral_gain is None:
+    placed = len(integral.poles) > 0
+    if not placed and integral_gain is None:
         if integral.outputs:
             raise ConfigError(own['outputs'], 'integral action needs '
                               'feedback.integral_poles (with feedback.poles) or '
                               'feedback.integral_gain (with feedback.gain)')
         return None
-    if integral.poles and integral_gain is not None:
+    if placed and integral_gain is not None:
         raise ConfigError(own['integral_gain'], 'give either feedback.integral_gain or '
                           'feedback.integral_poles, not both')
     if integral_gain is not None and gain is None:
         raise ConfigError(own['integral_gain'], 'a given K_i goes with a given '
                           'feedback.gain; with feedback.poles give feedback.integral_poles')
-    if integral.poles and gain is not None:
+    if placed and gain is not None:
         raise ConfigError(own['poles'], 'the integral poles are placed with '
                           'feedback.poles; with a given feedback.gain give '
                           'feedback.integral_gain')
     outputs = _integral_outputs(integral, model)
     all_poles = None
-    if integral.poles:
-        with binding.charged(own['poles']):
-            integral_poles = parsed_poles({'poles': integral.poles})
+    if placed:
+        integral_poles = integral.poles  # converted once, with the parameters
         if integral_poles.size != len(outputs):
             raise ConfigError(own['poles'], f'expected {len(outputs)} poles (one per '
                               f'integrated output), got {integral_poles.size}')
@@ -178,22 +177,21 @@ def feedback_settings(sections: Sections,
     section, model = sections.feedback, augmentation.plant
     binding = ModelSection.binding() | section.binding()
     integral = section.integral
-    gain, pole_text = section.gain or None, section.poles
+    gain = section.gain or None
+    poles = section.poles if len(section.poles) else None  # converted once: a complex array
     if integral.outputs and model.n_inputs == 0:
         raise ConfigError(integral.binding()['outputs'], 'the model has no inputs (model.B is '
                           'empty, m = 0): integral action is not available; leave it empty')
-    if gain is None and not pole_text:
+    if gain is None and poles is None:
         _refuse_without_gain(section)
         return None
     if model.n_inputs == 0:
         raise ConfigError(binding['gain'] if gain is not None else binding['poles'],
                           'the model has no inputs (model.B is empty, m = 0): state feedback '
                           'is not available')
-    if gain is not None and pole_text:
+    if gain is not None and poles is not None:
         raise ConfigError(binding['gain'], 'give either feedback.gain or feedback.poles, '
                           'not both')
-    with binding.charged(binding['poles']):
-        poles = parsed_poles({'poles': pole_text})
     if poles is not None and poles.size != model.n_states:
         raise ConfigError(binding['poles'],
                           f'expected {model.n_states} poles, got {poles.size}')
@@ -225,7 +223,7 @@ def _refuse_without_gain(section: FeedbackSection) -> None:
     if section.disturbance_rejection:
         raise ConfigError(binding['disturbance_rejection'], 'expected feedback.gain or '
                           'feedback.poles with it')
-    if integral.poles or integral.integral_gain:
+    if len(integral.poles) > 0 or len(integral.integral_gain) > 0:
         raise ConfigError(binding['poles'], 'integral action needs the state feedback too: '
                           'feedback.poles or feedback.gain')
     if integral.outputs:

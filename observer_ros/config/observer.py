@@ -43,7 +43,7 @@ import numpy as np
 from observer_ros.config.model import Augmentation
 from observer_ros.config.sections import (
     Binding, JointStatesSection, ModelSection, ObserverSection, Sections)
-from observer_ros.config.sources import measurement_sources, SourcesSetup
+from observer_ros.config.sources import measurement_sources, SOURCE_ARGUMENTS, SourcesSetup
 from observer_ros.config.values import check_inside, indices
 from observer_ros.core.angles import Angles
 from observer_ros.core.design.common import ObserverDesign
@@ -393,7 +393,3 @@ class ObserverSetup:
         """Whether the stream keeps a history (several sources, or ``observer.history``)."""
         return self.history_ns > 0 or self.sources is not None and len(
             self.sources.sources) > 1
-
-
-#: The stream's arguments about sources, bound to their parameters.
-SOURCE_ARGUMENTS = {'sources': 'observer.sources', 'history': 'observer.history'}

@@ -32,6 +32,7 @@ from observer_ros.core.arguments import (
     number_text, SEED_MAX, STRING, STRING_ARRAY)
 from observer_ros.core.arguments import seconds as _core_seconds
 from observer_ros.core.observers import observer_arguments, observer_type_names, observer_types
+from observer_ros.core.observers.common import read_poles
 from observer_ros.core.placement import METHODS
 from observer_ros.wire import JOINT_STATE_FIELDS, message_types, TYPE_NAMES
 
@@ -259,7 +260,7 @@ FEEDBACK_PARAMETERS = (
     _values('feedback.gain', _matrix('Given state-feedback gain K, m x n (u = -K x_hat + N r)'),
             _FB, dynamic=True),
     _spec('feedback.poles', STRING_ARRAY, [], 'Poles of A - B K as strings, n of them.', _FB,
-          dynamic=True),
+          dynamic=True, parse=read_poles),
     _spec('feedback.method', STRING, 'auto', 'Pole placement method for K: '
           + ' | '.join(METHODS) + '.', _FB, dynamic=True, choices=METHODS),
     _values('feedback.reference_gain', _matrix(
@@ -282,7 +283,7 @@ FEEDBACK_PARAMETERS = (
           'integrators, placed together with feedback.poles on the augmented model [A 0; '
           '-C_i 0] (discrete: [A 0; -T C_i I]) as strings. With feedback.poles this designs K '
           'and K_i; empty with an empty feedback.integral_gain: no integral action.', _FB,
-          dynamic=True),
+          dynamic=True, parse=read_poles),
     _values('feedback.integral_gain', _matrix('Integral action: a given K_i, m x q, in u = -K '
                                               'x_hat + K_i z (with feedback.gain)'), _FB,
             dynamic=True),

@@ -37,7 +37,7 @@ carries its argument and its reason, the binding the parameter; no text is parse
 """
 
 from contextlib import contextmanager
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, fields
 import difflib
 from typing import Any, Iterable, Iterator, Mapping
 
@@ -157,7 +157,28 @@ def unknown_parameter(name: str, known: Iterable[str]) -> str:
     return f'unknown parameter{guess} (every parameter: {PARAMETERS_PAGE})'
 
 
-class Binding(Mapping):
+class ReadOnlyMapping(Mapping):
+    """
+    A read-only mapping of a copy of the one given.
+
+    The one base of :class:`Binding` and :class:`SettingsByName`, which differ only in
+    what they add.
+    """
+
+    def __init__(self, items: Mapping[str, Any]) -> None:
+        self._items = dict(items)
+
+    def __getitem__(self, key: str) -> Any:
+        return self._items[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._items)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+
+class Binding(ReadOnlyMapping):
     """
     Which parameter each argument of a core call stands for: ``{argument: parameter}``.
 
@@ -175,20 +196,8 @@ class Binding(Mapping):
 
     """
 
-    def __init__(self, parameters: Mapping[str, str]) -> None:
-        self._parameters = dict(parameters)
-
-    def __getitem__(self, argument: str) -> str:
-        return self._parameters[argument]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._parameters)
-
-    def __len__(self) -> int:
-        return len(self._parameters)
-
     def __or__(self, other: Mapping[str, str]) -> 'Binding':
-        return Binding({**self._parameters, **other})
+        return Binding({**self._items, **other})
 
     def error(self, error: Exception, fallback: str) -> ConfigError:
         """
@@ -196,13 +205,14 @@ class Binding(Mapping):
 
         An error about no bound argument (an unobservable pair names none) is charged to
         ``fallback``: the parameter whose value led to it. An error that names one of the
-        bound parameters already keeps it.
+        bound parameters already keeps it, and so does one naming a measurement source's
+        setting (``sources.<name>.outputs``, as the core's source check names it).
         """
-        argument = getattr(error, 'parameter', '')
+        argument = getattr(error, 'parameter', '') or ''
         reason = getattr(error, 'reason', None) or str(error)
-        if argument in self._parameters.values():
+        if argument in self._items.values() or argument.startswith(SOURCES_PREFIX):
             return ConfigError(argument, reason)
-        return ConfigError(self._parameters.get(argument) or fallback, reason)
+        return ConfigError(self._items.get(argument) or fallback, reason)
 
     @contextmanager
     def charged(self, fallback: str, numeric: bool = False) -> Iterator[None]:
@@ -329,8 +339,8 @@ class ObserverSection(Section):
     Attributes
     ----------
     arguments : dict
-        The arguments of every registered observer type, checked, by their own names
-        (``arguments['poles']`` is ``observer.poles``; bound in
+        The arguments of every registered observer type, checked and converted, by their
+        own names (``arguments['poles']`` is ``observer.poles``, a complex array; bound in
         :data:`~observer_ros.config.schema.OBSERVER_ARGUMENTS`).
 
     """
@@ -370,19 +380,29 @@ class ObserverSection(Section):
 
 @dataclass(frozen=True)
 class IntegralSection(Section):
-    """``feedback.integral_*``: integral action, by the names of the integral design."""
+    """
+    ``feedback.integral_*``: integral action, by the names of the integral design.
 
-    poles: list = bound('feedback.integral_poles')
+    ``poles`` is the complex array converted once from the numbers or texts given (empty
+    without integral poles).
+    """
+
+    poles: np.ndarray = bound('feedback.integral_poles')
     integral_gain: list = bound('feedback.integral_gain')
     outputs: list = bound('feedback.integral_outputs')
 
 
 @dataclass(frozen=True)
 class FeedbackSection(Section):
-    """``feedback.*``: the state feedback's gain or poles, limits and safe command."""
+    """
+    ``feedback.*``: the state feedback's gain or poles, limits and safe command.
+
+    ``poles`` is the complex array converted once from the numbers or texts given (empty
+    without poles).
+    """
 
     gain: list = bound('feedback.gain')
-    poles: list = bound('feedback.poles')
+    poles: np.ndarray = bound('feedback.poles')
     method: str = bound('feedback.method')
     reference_gain: list = bound('feedback.reference_gain')
     input_limits: list = bound('feedback.input_limits')
@@ -476,20 +496,8 @@ class TopicSettings:
         return entry is not None and entry.stamped
 
 
-class SettingsByName(Mapping):
+class SettingsByName(ReadOnlyMapping):
     """A section kept by name (a topic, a source): a read-only mapping of its settings."""
-
-    def __init__(self, settings: Mapping[str, Any]) -> None:
-        self._settings = dict(settings)
-
-    def __getitem__(self, name: str) -> Any:
-        return self._settings[name]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._settings)
-
-    def __len__(self) -> int:
-        return len(self._settings)
 
 
 class TopicsSection(SettingsByName):
@@ -613,35 +621,31 @@ class Sections(Section):
         """
         Check ``params`` once (:func:`complete_parameters`) and read every section.
 
-        The observer types' arguments are converted once into the type their designs take
-        (:func:`converted_arguments`: ``observer.poles`` a complex array, from the numbers
-        or texts given).
+        Every parameter whose spec has a ``parse`` is converted once into the type its
+        user takes (:func:`converted_parameters`: ``observer.poles``, ``feedback.poles``
+        and ``feedback.integral_poles`` complex arrays, from the numbers or texts given),
+        and the sections hold that value; :attr:`parameters` keeps the checked form.
         """
         checked = complete_parameters(params, strict)
-        values = cls.values(checked)
-        values['observer'] = replace(values['observer'],
-                                     arguments=converted_arguments(params, checked))
+        values = cls.values({**checked, **converted_parameters(params)})
         return cls(**values, parameters=checked)
 
 
-def converted_arguments(params: Mapping[str, Any], checked: Mapping[str, Any]) -> dict:
+def converted_parameters(params: Mapping[str, Any]) -> dict:
     """
-    Return the observer types' arguments by their own names, each in its final type.
+    Return each parameter of the schema that has a ``parse``, converted into its final type.
 
-    An argument with a ``parse`` (``poles``) is converted once from the value as given in
-    ``params`` (:meth:`~observer_ros.core.arguments.Argument.convert`: numbers stay
-    numbers on the way, texts are parsed), the others are the checked values. The checked
-    mapping keeps the parameter's own form (texts), for a parameter file written back.
+    Converted once from the value as given in ``params``
+    (:meth:`~observer_ros.core.arguments.Argument.convert`: numbers stay numbers on the
+    way, texts are parsed; a pole list becomes a complex array, empty when none is given).
+    The checked mapping (:func:`complete_parameters`) keeps the parameter's own form
+    (texts), for a parameter file written back.
 
     Raises
     ------
     ConfigError
-        Naming the parameter (``observer.poles: cannot read 'x' as a pole``).
+        Naming the parameter (``feedback.poles: cannot read 'x' as a pole``).
 
     """
-    converted = {}
-    for argument, parameter in OBSERVER_ARGUMENTS.items():
-        spec = PARAMETER_SPECS[parameter]
-        converted[argument] = (checked[parameter] if spec.parse is None
-                               else spec.convert(params.get(parameter, spec.default)))
-    return converted
+    return {spec.name: spec.convert(params.get(spec.name, spec.default))
+            for spec in PARAMETERS if spec.parse is not None}

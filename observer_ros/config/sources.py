@@ -35,16 +35,22 @@ from typing import Optional
 import numpy as np
 
 from observer_ros.config.schema import FIELD_MESSAGE_TYPES
-from observer_ros.config.sections import Sections, SourceSettings
+from observer_ros.config.sections import Binding, Sections, SourceSettings
 from observer_ros.config.timing import sample_rate
 from observer_ros.config.values import indices
 from observer_ros.core.arguments import number_text
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.flat_matrices import covariance_from_flat
 from observer_ros.core.model import StateSpaceModel
-from observer_ros.core.sources import MeasurementSource
+from observer_ros.core.sources import check_sources, MeasurementSource
 from observer_ros.core.units import seconds_to_ns
 from observer_ros.wire import FieldPathError, FieldReader, find
+
+
+#: The core's arguments about sources (:func:`~observer_ros.core.sources.check_sources`, the
+#: stream), bound to their parameters; a source's own setting is named as its parameter
+#: already (``sources.<name>.outputs``).
+SOURCE_ARGUMENTS = {'sources': 'observer.sources', 'history': 'observer.history'}
 
 
 @dataclass(frozen=True)
@@ -87,8 +93,6 @@ def _source(settings: SourceSettings, model: StateSpaceModel) -> MeasurementSour
         raise ConfigError(outputs, f'expected {len(settings.fields)} outputs (one per field '
                           f'of {fields}), got {len(settings.outputs)}')
     carried = indices(outputs, settings.outputs, model.output_names, 'output')
-    if len(set(carried)) != len(carried):
-        raise ConfigError(outputs, f'an output is named twice in {list(settings.outputs)}')
     return MeasurementSource(settings.name, carried, seconds_to_ns(settings.latency),
                              seconds_to_ns(settings.timeout), settings.predict_only)
 
@@ -121,32 +125,23 @@ def measurement_sources(sections: Sections, model: StateSpaceModel) -> Optional[
     ------
     ConfigError
         Naming the parameter: a wrong field path (with the type and the fields it has),
-        outputs that are no outputs of the model, of the wrong count, in two sources or in
-        none, a block of R of the wrong size or given for some sources only, a timeout not
-        above one sample period. A latency longer than ``observer.history`` is refused
-        where the stream takes the sources
-        (:func:`~observer_ros.core.sources.check_sources`, the one place of that rule),
-        which :func:`~observer_ros.config.validate_parameters` builds once.
+        outputs that are no outputs of the model, of the wrong count, a block of R of the
+        wrong size or given for some sources only, a timeout not above one sample period.
+        The rules between the sources (each output in exactly one source, named by
+        ``sources.<name>.outputs`` or ``observer.sources``; a latency longer than
+        ``observer.history``) are the core's
+        :func:`~observer_ros.core.sources.check_sources`, the one place of them, asked
+        here before the design and again by the stream, which
+        :func:`~observer_ros.config.validate_parameters` builds once.
 
     """
     settings = tuple(sections.sources.values())
     if not settings:
         return None
-    sources = tuple(_source(item, model) for item in settings)
-    owner: dict = {}
-    names = model.output_names
-    for source, item in zip(sources, settings):
-        for index in source.outputs:
-            if index in owner:
-                raise ConfigError(item.parameter('outputs'), f'output {names[index]} is '
-                                  f'carried by sources {owner[index]!r} and {source.name!r} '
-                                  f'too; each output belongs to one source (two sensors of '
-                                  f'one quantity are two outputs)')
-            owner[index] = source.name
-    missing = [names[k] for k in range(model.n_outputs) if k not in owner]
-    if missing:
-        raise ConfigError('observer.sources', f'outputs {missing} belong to no source; '
-                          f'expected every output of the model in one source')
+    history_ns = seconds_to_ns(sections.observer.history, SOURCE_ARGUMENTS['history'])
+    with Binding(SOURCE_ARGUMENTS).charged(SOURCE_ARGUMENTS['sources']):
+        sources = check_sources(tuple(_source(item, model) for item in settings),
+                                model.n_outputs, history_ns, model.output_names)
     rate, rate_source = sample_rate(sections, model)
     for item in settings:
         if item.timeout and item.timeout * rate <= 1.0:

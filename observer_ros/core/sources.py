@@ -26,8 +26,10 @@ stamps, and the estimator updates with the outputs that arrived
 one source, latencies within the history); :func:`check_subsets` asks the estimator, at
 start-up, whether each source alone can be updated with, and refuses one that cannot (an
 unobservable subset for a design per subset) unless it is declared ``predict_only``.
-:func:`check_sources` is the one place of the rule that a latency fits in the history: the
-parameter validation builds the stream, which calls it, instead of checking it again.
+:func:`check_sources` is the one place of the rules between sources (every output in exactly
+one source, a latency within the history): the parameter validation asks it instead of
+checking them again, and its errors name the parameter at fault
+(``sources.<name>.outputs`` is both the source's outputs here and their parameter).
 """
 
 from dataclasses import dataclass
@@ -92,6 +94,15 @@ def default_source(n_outputs: int) -> MeasurementSource:
     return MeasurementSource(DEFAULT_SOURCE, tuple(range(n_outputs)))
 
 
+def outputs_argument(name: str) -> str:
+    """
+    Return the name errors give the outputs of source ``name``: ``sources.<name>.outputs``.
+
+    The same name as the source's parameter, so a configuration's error names it as it is.
+    """
+    return f'sources.{name}.outputs'
+
+
 def _integer(name: str, what: str, value) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value < 0:
         raise ConfigError('sources', f'source {name!r}: expected {what} as an integer >= 0 '
@@ -121,17 +132,20 @@ def check_sources(sources: Sequence[MeasurementSource], n_outputs: int, history_
     Raises
     ------
     ConfigError
-        ``sources``: none given, a repeated or empty name, an output out of range, in two
-        sources (or twice in one) or in none, a negative latency or timeout; ``history``:
-        a latency longer than the history.
+        ``sources``: none given, a repeated or empty name, an output in no source, a
+        negative latency or timeout; ``sources.<name>.outputs`` (the source at fault): no
+        output, an output out of range, in two sources or twice in one; ``history``: a
+        latency longer than the history. The one place of these rules: the parameter
+        validation asks this function, which names the parameters
+        (``sources.<name>.outputs`` is the parameter of the source's outputs).
 
     Examples
     --------
     >>> check_sources([MeasurementSource('a', (0,)), MeasurementSource('b', (0, 1))], 2)
     Traceback (most recent call last):
     ...
-    observer_ros.core.errors.ConfigError: sources: output y1 is carried by sources 'a' and 'b'; \
-each output belongs to one source (two sensors of one quantity are two outputs)
+    observer_ros.core.errors.ConfigError: sources.b.outputs: output y1 is carried by sources 'a' \
+and 'b'; each output belongs to one source (two sensors of one quantity are two outputs)
 
     """
     names = list(output_names) if output_names else [f'y{k + 1}' for k in range(n_outputs)]
@@ -146,17 +160,20 @@ each output belongs to one source (two sensors of one quantity are two outputs)
         if source.name in seen:
             raise ConfigError('sources', f'source {source.name!r} is named twice')
         seen.add(source.name)
+        outputs = outputs_argument(source.name)
         if not source.outputs:
-            raise ConfigError('sources', f'source {source.name!r}: expected at least one '
-                              f'output, got none')
+            raise ConfigError(outputs, 'expected at least one output, got none')
         for index in source.outputs:
             if isinstance(index, bool) or not isinstance(index, int) or not (
                     0 <= index < n_outputs):
-                raise ConfigError('sources', f'source {source.name!r}: output {index!r} is no '
-                                  f'output of the model (0 ... {n_outputs - 1}: {names})')
+                raise ConfigError(outputs, f'output {index!r} is no output of the model '
+                                  f'(0 ... {n_outputs - 1}: {names})')
+            if owner.get(index) == source.name:
+                raise ConfigError(outputs, f'output {names[index]} is named twice in source '
+                                  f'{source.name!r}; each output belongs to one source, once')
             if index in owner:
                 raise ConfigError(
-                    'sources', f'output {names[index]} is carried by sources '
+                    outputs, f'output {names[index]} is carried by sources '
                     f'{owner[index]!r} and {source.name!r}; each output belongs to one source '
                     f'(two sensors of one quantity are two outputs)')
             owner[index] = source.name

@@ -170,9 +170,7 @@ class ObserverWiring:
 
     def vet_system(self, system) -> None:
         """Refuse configurations without an observer, or whose sampled steps fail."""
-        if system.observer is None:
-            raise ConfigError('observer.poles', 'the observer node needs observer.poles, '
-                              'observer.gain or the Kalman noise covariances')
+        system.required_observer('the observer node')
         stream = getattr(self, 'stream', None)
         if stream is None:
             return
