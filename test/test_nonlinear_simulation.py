@@ -32,6 +32,9 @@ import math
 import numpy as np
 import pytest
 
+from conftest import REPOSITORY
+from observer_ros.config.loader import load_parameter_file
+from observer_ros.config.nonlinear import read_nonlinear_model
 from observer_ros.core.design.feedback import design_feedback
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.model import StateSpaceModel
@@ -262,3 +265,18 @@ def test_bad_loop_arguments_are_refused_by_name(change, match):
     ekf = ExtendedKalman(arm, [0.0, 1e-2], [1e-6])
     with pytest.raises(ConfigError, match=match):
         simulate_observer_controller(NonlinearPlantSimulator(arm), ekf, **arguments)
+
+
+def test_the_example_file_holds_the_arm_joint_and_its_equilibrium():
+    params = load_parameter_file(str(REPOSITORY / 'config' / 'nonlinear' / 'arm_joint.yaml'))
+    model = read_nonlinear_model(params)
+    arm = arm_joint(MASS, LENGTH, GRAVITY, DAMPING)
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        x, u = rng.normal(0.0, 2.0, 2), rng.normal(0.0, 5.0, 1)
+        np.testing.assert_allclose(model.f(x, u), arm.f(x, u), rtol=1e-15, atol=1e-15)
+    assert model.angle_states == (0,) and model.angle_outputs == (0,)
+    assert params['model.operating_state'] == [Q0, 0.0]
+    assert params['model.operating_input'] == [TAU0]
+    assert params['plant.initial_state'][0] - Q0 == pytest.approx(math.radians(30.0))
+    linearize(model, params['model.operating_state'], params['model.operating_input'])
