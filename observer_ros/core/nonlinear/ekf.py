@@ -32,7 +32,7 @@ Prediction over an interval ``T`` with the input ``u`` held (zero-order hold):
   ``h`` (a local error of order ``h^3``). On the differential-drive base turning at 1.5 rad/s
   at 2 m/s, after 1 s the covariance differs from the RK4 of 0.1 ms steps by 5.6e-7 relative
   at 1 ms steps (2.3e-6 at 2 ms, 5.6e-5 at 10 ms; the RK4 1.5e-13, 2.1e-12, 1.3e-9), for
-  about 60 % of the RK4's cost per step (benchmark section 10);
+  60 to 75 % of the RK4's cost per step (benchmark section 10, ``doc/nonlinear.md``);
 - discrete model: ``x+ = f(x, u)`` and ``P+ = F P F^T + Q``.
 
 Update with the outputs of a source: ``v = y - h(x-, u)`` (angle outputs wrapped),
