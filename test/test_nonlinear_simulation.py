@@ -35,6 +35,7 @@ import numpy as np
 import pytest
 
 from conftest import REPOSITORY
+from observer_ros.config import validate_parameters
 from observer_ros.config.loader import load_parameter_file
 from observer_ros.config.nonlinear import read_nonlinear_model
 from observer_ros.core.design.feedback import design_feedback
@@ -341,3 +342,16 @@ def test_the_ekf_takes_the_midpoint_prediction_and_refuses_an_unknown_one():
     with pytest.raises(ConfigError, match=r'covariance_prediction: expected one of '
                        r"\['rk4', 'midpoint'\]"):
         ExtendedKalman(model, *arguments, covariance_prediction='euler')
+
+
+def test_observer_ekf_prediction_chooses_the_prediction_and_is_checked_by_name():
+    params = {'model.A': [0.0, 1.0, -4.0, -0.5], 'model.B': [0.0, 1.0],
+              'model.C': [1.0, 0.0], 'observer.type': 'extended_kalman',
+              'observer.process_noise': [0.0, 0.5], 'observer.measurement_noise': [0.01]}
+    assert validate_parameters(params).make_stream().estimator.covariance_prediction == 'rk4'
+    chosen = validate_parameters(dict(params, **{'observer.ekf_prediction': 'midpoint'}))
+    assert chosen.make_stream().estimator.covariance_prediction == 'midpoint'
+    with pytest.raises(ConfigError) as caught:
+        validate_parameters(dict(params, **{'observer.ekf_prediction': 'euler'}))
+    assert caught.value.parameter == 'observer.ekf_prediction'
+    assert 'expected one of rk4, midpoint' in caught.value.reason
