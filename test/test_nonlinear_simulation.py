@@ -42,12 +42,13 @@ from observer_ros.core.design.feedback import design_feedback
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.nonlinear import (
-    differential_drive, ExtendedKalman, linear_as_expressions)
+    differential_drive, ExtendedKalman, linear_as_expressions, UnscentedKalman)
 from observer_ros.core.nonlinear import simulation
 from observer_ros.core.nonlinear.ekf import integrate, integrate_midpoint
 from observer_ros.core.nonlinear.model import NonlinearModel
 from observer_ros.core.nonlinear.simulation import (
     arm_joint, linearize, NonlinearPlantSimulator, simulate_observer_controller)
+from observer_ros.core.observers.kalman.time_varying import TimeVaryingKalman
 from observer_ros.core.simulation import PlantSimulator
 
 WHEEL_RADIUS, TRACK = 0.05, 0.3
@@ -223,22 +224,24 @@ def test_a_bad_operating_point_is_refused_by_name(state, inputs, match):
 
 
 def run_arm(initial_error_degrees, process_noise=(0.0, 1e-4), measurement_noise=(1e-6,),
-            samples=300):
-    """Run the arm at 45 degrees under the EKF and the law of poles -4, -5 at 100 Hz."""
+            samples=300, kind=ExtendedKalman):
+    """Run the arm at 45 degrees under the filter and the law of poles -4, -5 at 100 Hz."""
     arm = arm_joint(MASS, LENGTH, GRAVITY, DAMPING)
     x0, u0 = [Q0, 0.0], [TAU0]
     feedback = design_feedback(linearize(arm, x0, u0), poles=[-4.0, -5.0])
     plant = NonlinearPlantSimulator(
         arm, [Q0 + math.radians(initial_error_degrees), 0.0], process_noise=process_noise,
         measurement_noise=measurement_noise, seed=30, input_limits=[-20.0, 20.0])
-    ekf = ExtendedKalman(arm, [0.0, 1e-2], [1e-6],
-                         initial_covariance=[math.radians(30.0) ** 2, 1.0], initial_state=x0)
-    return simulate_observer_controller(plant, ekf, feedback.gain, x0, u0, 0.01, samples)
+    estimator = kind(arm, [0.0, 1e-2], [1e-6],
+                     initial_covariance=[math.radians(30.0) ** 2, 1.0], initial_state=x0)
+    return simulate_observer_controller(plant, estimator, feedback.gain, x0, u0, 0.01,
+                                        samples)
 
 
+@pytest.mark.parametrize('kind', [ExtendedKalman, UnscentedKalman])
 @pytest.mark.parametrize('initial_error', [30.0, -30.0])
-def test_the_arm_joint_converges_from_an_initial_error_of_30_degrees(initial_error):
-    run = run_arm(initial_error)
+def test_the_arm_joint_converges_from_an_initial_error_of_30_degrees(initial_error, kind):
+    run = run_arm(initial_error, kind=kind)
     error = np.degrees(run.states[:, 0] - Q0)
     assert abs(error[0]) == pytest.approx(30.0)
     assert abs(error[100]) < 4.0  # 1 s: the design's slowest pole -4 leaves ~2 %-10 %
@@ -246,6 +249,24 @@ def test_the_arm_joint_converges_from_an_initial_error_of_30_degrees(initial_err
     estimate_error = np.abs(run.estimates[200:] - run.states[200:])
     assert estimate_error[:, 0].max() < 3e-3 and estimate_error[:, 1].max() < 0.05
     assert np.abs(run.commands[200:, 0] - TAU0).max() < 0.2  # gravity's torque holds it
+
+
+def test_the_loop_of_a_linear_model_as_expressions_equals_the_linear_loop():
+    model = StateSpaceModel.from_matrices([[0.0, 1.0], [2.0, -0.5]], [[0.0], [1.0]],
+                                          [[1.0, 0.0]])
+    gain = design_feedback(model, poles=[-3.0, -4.0]).gain
+    runs = []
+    for plant, estimator in (
+            (PlantSimulator(model, [0.4, 0.0]),
+             TimeVaryingKalman(model, [0.0, 0.5], [1e-4], [1.0, 1.0])),
+            (NonlinearPlantSimulator(linear_as_expressions(model), [0.4, 0.0]),
+             ExtendedKalman(linear_as_expressions(model), [0.0, 0.5], [1e-4], [1.0, 1.0]))):
+        runs.append(simulate_observer_controller(plant, estimator, gain, [0.0, 0.0], [0.0],
+                                                 0.01, 300))
+    linear, nonlinear = runs
+    assert np.abs(linear.states[0]).max() == 0.4 and np.abs(linear.states[-1]).max() < 1e-2
+    for name in ('states', 'estimates', 'commands'):
+        assert relative(getattr(nonlinear, name), getattr(linear, name)) < 1e-9, name
 
 
 def test_without_noise_the_arm_joint_settles_on_the_operating_point():

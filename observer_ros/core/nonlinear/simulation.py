@@ -419,7 +419,8 @@ def simulate_observer_controller(plant: NonlinearPlantSimulator, estimator, gain
 
     Parameters
     ----------
-    plant : NonlinearPlantSimulator
+    plant : NonlinearPlantSimulator or PlantSimulator
+        The linear plant too (the same interface; no angle states).
     estimator : Estimator
         Any estimator of the protocol (an :class:`~observer_ros.core.nonlinear.ExtendedKalman`
         of the same equations, a linear observer of the deviations...).
@@ -430,7 +431,8 @@ def simulate_observer_controller(plant: NonlinearPlantSimulator, estimator, gain
         ``T`` in seconds.
     samples : int
     angle_states : sequence of int, optional
-        States whose deviation is wrapped; default the plant model's ``angle_states``.
+        States whose deviation is wrapped; default the plant model's ``angle_states`` (none
+        for a linear model).
 
     Returns
     -------
@@ -455,7 +457,8 @@ def simulate_observer_controller(plant: NonlinearPlantSimulator, estimator, gain
         raise ConfigError('period', f'expected a period > 0 s, got {period!r}')
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
         raise ConfigError('samples', f'expected a count >= 1, got {samples!r}')
-    angles = list(model.angle_states if angle_states is None else angle_states)
+    angles = list(getattr(model, 'angle_states', ()) if angle_states is None
+                  else angle_states)
     period_ns = int(round(period * NANOSECONDS))
     records = {name: [] for name in ('stamps', 'states', 'estimates', 'commands', 'outputs')}
     held = u0.copy()
