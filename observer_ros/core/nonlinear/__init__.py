@@ -19,7 +19,9 @@ Nonlinear models written as equations, and the filters that run them.
 evaluated); :class:`NonlinearModel` holds the equations of ``x' = f(x, u)`` and each
 output's ``h(x, u)`` with their exact Jacobians (SymPy, generated once); the extended and
 unscented Kalman filters (:mod:`~observer_ros.core.nonlinear.ekf`,
-:mod:`~observer_ros.core.nonlinear.ukf`) run them in the event engine like any estimator.
+:mod:`~observer_ros.core.nonlinear.ukf`) run them in the event engine like any estimator;
+:mod:`~observer_ros.core.nonlinear.simulation` simulates them as a plant, linearizes them at
+an operating point and runs the closed loop with a law designed there.
 """
 
 from observer_ros.core.nonlinear.ekf import ExtendedKalman
@@ -28,8 +30,11 @@ from observer_ros.core.nonlinear.expressions import (
 from observer_ros.core.nonlinear.filter import NonlinearFilter
 from observer_ros.core.nonlinear.model import (
     differential_drive, linear_as_expressions, NonlinearModel)
+from observer_ros.core.nonlinear.simulation import (
+    arm_joint, linearize, NonlinearPlantSimulator, simulate_observer_controller)
 from observer_ros.core.nonlinear.ukf import UnscentedKalman
 
 __all__ = ['Expression', 'ExpressionError', 'ExtendedKalman', 'FUNCTIONS', 'NonlinearFilter',
-           'NonlinearModel', 'UnscentedKalman', 'differential_drive', 'linear_as_expressions',
-           'parse_expression']
+           'NonlinearModel', 'NonlinearPlantSimulator', 'UnscentedKalman', 'arm_joint',
+           'differential_drive', 'linear_as_expressions', 'linearize', 'parse_expression',
+           'simulate_observer_controller']

@@ -29,8 +29,9 @@ integrator's accuracy.
 
 from dataclasses import replace
 
-from observer_ros.core.arguments import Argument, DOUBLE
+from observer_ros.core.arguments import Argument, DOUBLE, STRING
 from observer_ros.core.errors import ConfigError
+from observer_ros.core.nonlinear.ekf import PREDICTIONS
 from observer_ros.core.nonlinear.filter import DEFAULT_MAX_STEP
 from observer_ros.core.nonlinear.model import linear_as_expressions
 from observer_ros.core.observers import Capabilities, ObserverType, ReportItem
@@ -39,7 +40,8 @@ from observer_ros.core.observers.kalman import (
 from observer_ros.core.observers.kalman.design import design_kalman
 from observer_ros.core.observers.kalman.time_varying import parse_initial_covariance
 
-__all__ = ['ALPHA', 'BETA', 'KAPPA', 'MAX_STEP', 'check_sigma_points', 'nonlinear_type']
+__all__ = ['ALPHA', 'BETA', 'KAPPA', 'MAX_STEP', 'PREDICTION', 'check_sigma_points',
+           'nonlinear_type']
 
 MAX_STEP = Argument('max_step', DOUBLE, DEFAULT_MAX_STEP,
                     'EKF and UKF of a continuous model: longest RK4 step (seconds) of the '
@@ -51,10 +53,17 @@ BETA = Argument('ukf_beta', DOUBLE, 2.0, 'UKF: weight of the centre point in the
                 '(2 is optimal for a Gaussian).', low=-1e6, high=1e6)
 KAPPA = Argument('ukf_kappa', DOUBLE, 0.0, 'UKF: secondary scaling of the sigma points '
                  '(ukf_alpha^2 (n + ukf_kappa) must be > 0).', low=-1e6, high=1e6)
+PREDICTION = Argument('ekf_prediction', STRING, 'rk4',
+                      'EKF of a continuous model: the covariance prediction, rk4 (the Riccati '
+                      'equation by RK4, four Jacobians a step, fourth order) or midpoint '
+                      '(Phi P Phi^T + Qd with one Jacobian a step, at its midpoint, second '
+                      'order, 0.75 of the cost); the mean is RK4 in both.',
+                      choices=PREDICTIONS)
 
 #: The keyword of the filter's constructor for each argument of :data:`ALPHA` and the others
 #: (their names carry ``ukf_``: another type's ``alpha`` means something else).
-KEYWORDS = {'ukf_alpha': 'alpha', 'ukf_beta': 'beta', 'ukf_kappa': 'kappa'}
+KEYWORDS = {'ukf_alpha': 'alpha', 'ukf_beta': 'beta', 'ukf_kappa': 'kappa',
+            'ekf_prediction': 'covariance_prediction'}
 
 #: What the filters can do.
 CAPABILITIES = Capabilities(covariance=True, angles=True, needs_every_output=False,

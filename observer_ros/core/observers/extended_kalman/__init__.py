@@ -21,10 +21,10 @@ The filter and its integrator: :mod:`observer_ros.core.nonlinear.ekf`; the type:
 """
 
 from observer_ros.core.nonlinear.ekf import ExtendedKalman
-from observer_ros.core.nonlinear.observer_types import nonlinear_type
+from observer_ros.core.nonlinear.observer_types import nonlinear_type, PREDICTION
 
 NAME = 'extended_kalman'
 
 TYPE = nonlinear_type(NAME, 'Extended Kalman filter (continuous-discrete: RK4 on the mean '
                       'and the Riccati equation, exact Jacobians)', ExtendedKalman,
-                      priority=150)
+                      extra=(PREDICTION,), priority=150)
