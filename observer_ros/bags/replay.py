@@ -35,9 +35,10 @@ from typing import Optional, Union
 
 import numpy as np
 
+from observer_ros.bags.reading import read_topics
 from observer_ros.bags.replay_reading import recorded_events, topic_request
 from observer_ros.bags.replay_results import InOrderEstimates, ReplayResult
-from observer_ros.bags.storage import absolute_topic, read_topics, TopicData
+from observer_ros.bags.storage import absolute_topic, TopicData
 from observer_ros.bags.time_bases import check_time_bases, log_timed, stream_warnings
 from observer_ros.config import Configuration, load_parameter_file, validate_parameters
 from observer_ros.core.estimates import replay_arrays
@@ -240,7 +241,7 @@ def replay_bag(bag: Union[str, os.PathLike],
     Raises
     ------
     observer_ros.bags.storage.BagError
-        The bag cannot give the topics (see :func:`observer_ros.bags.storage.read_topic`),
+        The bag cannot give the topics (see :func:`observer_ros.bags.reading.read_topic`),
         or they are stamped in different time bases.
     observer_ros.core.errors.ConfigError
         A bad parameter file, naming the parameter.

@@ -29,7 +29,8 @@ from typing import Optional
 import numpy as np
 
 from observer_ros.bags.replay_results import ReplayResult
-from observer_ros.bags.storage import BagError, STORAGES, TopicToWrite, write_bag
+from observer_ros.bags.storage import BagError, STORAGES
+from observer_ros.bags.writing import TopicToWrite, write_bag
 
 
 def missing_parents(path: Path) -> list:

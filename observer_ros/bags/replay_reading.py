@@ -27,8 +27,8 @@ from typing import Optional
 
 import numpy as np
 
-from observer_ros.bags.storage import (
-    absolute_topic, BagError, Playback, read_topics, TopicData, TopicRequest)
+from observer_ros.bags.reading import read_topics, TopicRequest
+from observer_ros.bags.storage import absolute_topic, BagError, Playback, TopicData
 from observer_ros.config import Configuration
 from observer_ros.config.schema import FIELD_MESSAGE_TYPES, source_parameter, topic_names
 from observer_ros.core.events import INPUT, MEASUREMENT

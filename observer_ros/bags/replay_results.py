@@ -27,8 +27,9 @@ from typing import Optional
 
 import numpy as np
 
+from observer_ros.bags.reading import read_topics, TopicRequest
 from observer_ros.bags.replay_reading import topic_data
-from observer_ros.bags.storage import BagError, read_topics, TopicData, TopicRequest
+from observer_ros.bags.storage import BagError, TopicData
 from observer_ros.bags.time_bases import log_timed
 from observer_ros.config import Configuration
 from observer_ros.config.schema import JOINT_STATE_FIELDS
