@@ -33,7 +33,7 @@ import time
 import numpy as np
 import yaml
 
-from observer_ros.bags.storage import TopicToWrite, write_bag
+from observer_ros.bags.writing import TopicToWrite, write_bag
 from observer_ros.tools.replay import main as replay_main
 from observer_ros.tools.tune_kalman import main as tune_main
 

@@ -32,7 +32,8 @@ import numpy as np
 
 from benchmarks.common import pyplot, random_poles, random_stable_system, Section
 from observer_ros.core.errors import ConfigError, DesignError
-from observer_ros.core.placement import DEFAULT_RTOL, place_observer, placement_residual
+from observer_ros.core.placement import DEFAULT_RTOL, place_observer
+from observer_ros.core.placement_checks import placement_residual
 
 TOLERANCE = DEFAULT_RTOL
 

@@ -31,7 +31,8 @@ import numpy as np
 from benchmarks.common import CONFIG_DIR, pyplot, Section, timed
 from observer_ros.bags.replay import replay_bag
 from observer_ros.bags.replay_outputs import write_replay
-from observer_ros.bags.storage import STORAGES, TopicToWrite, write_bag
+from observer_ros.bags.storage import STORAGES
+from observer_ros.bags.writing import TopicToWrite, write_bag
 from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.streaming import EventStream
 

@@ -22,8 +22,9 @@ import pytest
 import yaml
 
 from bag_support import robot_parameters, ROBOT_TOPICS, write_robot_bag
+from observer_ros.bags.reading import read_topic
 from observer_ros.bags.replay import replay_bag
-from observer_ros.bags.storage import BagError, Playback, read_topic
+from observer_ros.bags.storage import BagError, Playback
 
 #: The robot's topics as a tool that records names without the leading slash writes them.
 RELATIVE_TOPICS = tuple(topic.lstrip('/') for topic in ROBOT_TOPICS)

@@ -27,8 +27,9 @@ from sensor_msgs.msg import JointState
 from bag_support import (JOINT_STATE, joint_state, robot_parameters, ROBOT_TOPICS, serialize,
                          TYPESTORE, write_robot_bag)
 from conftest import CONFIG_DIR, console_script
+from observer_ros.bags.reading import read_topic
 from observer_ros.bags.replay import replay_bag
-from observer_ros.bags.storage import BagError, Playback, read_topic
+from observer_ros.bags.storage import BagError, Playback
 from observer_ros.nodes.bag_player import main as player_main, message_class
 from observer_ros.nodes.observer import ObserverNode
 from observer_ros.ros.recorder import TopicRecorder

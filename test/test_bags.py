@@ -29,10 +29,11 @@ from bag_support import (float64_array, JOINT_STATE, joint_state, robot_paramete
                          TYPESTORE, write_robot_bag)
 from conftest import CONFIG_DIR, console_script
 from observer_ros.bags.mcap import McapError, read_mcap_topics
+from observer_ros.bags.reading import read_topic, read_topics, TopicRequest
 from observer_ros.bags.replay import replay_bag
 from observer_ros.bags.replay_outputs import write_replay
-from observer_ros.bags.storage import (
-    _mcap_files, BagError, read_topic, read_topics, TopicRequest, TopicToWrite, write_bag)
+from observer_ros.bags.storage import _mcap_files, BagError
+from observer_ros.bags.writing import TopicToWrite, write_bag
 from observer_ros.config import load_parameter_file, validate_parameters
 import observer_ros.wire
 from observer_ros.wire import decode, DecodeError, Encoder, MessageReader, MessageWriter

@@ -42,6 +42,8 @@ DOCUMENTED_MODULES = (
     'observer_ros.core.analysis',
     'observer_ros.core.poles',
     'observer_ros.core.placement',
+    'observer_ros.core.placement_checks',
+    'observer_ros.core.placement_methods',
     'observer_ros.core.design.common',
     'observer_ros.core.observers.full_order.design',
     'observer_ros.core.observers.reduced_order.design',

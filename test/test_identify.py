@@ -20,7 +20,7 @@ import pytest
 from observer_ros.bags.examples import (
     THIRD_ORDER_A, THIRD_ORDER_B, THIRD_ORDER_PERIOD, THIRD_ORDER_SAMPLES, THIRD_ORDER_SNR_DB,
     write_third_order)
-from observer_ros.bags.storage import TopicToWrite, write_bag
+from observer_ros.bags.writing import TopicToWrite, write_bag
 from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.discretize import zero_order_hold
 from observer_ros.tools.design_observer import main as design_observer

@@ -29,7 +29,8 @@ from sensor_msgs.msg import JointState
 import yaml
 
 from bag_support import JOINT_STATE, joint_state, serialize, STORAGES, TYPESTORE
-from observer_ros.bags.replay import reference_rmse, replay_bag, StateReference
+from observer_ros.bags.replay import replay_bag
+from observer_ros.bags.replay_results import reference_rmse, StateReference
 from observer_ros.config import validate_parameters
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.evaluation import settling_time

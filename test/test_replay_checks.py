@@ -376,7 +376,8 @@ def test_replay_holds_unstamped_inputs_for_the_next_measurement_as_the_node_does
     # next measurement (EventStream.hold_input); replay stamped it with its log time, so
     # offline and online differed. Both paths (message by message for a Twist, arrays for
     # a Float64MultiArray) against the stream fed in bag order as the node feeds it.
-    from observer_ros.bags.replay import load_system, recorded_events
+    from observer_ros.bags.replay import load_system
+    from observer_ros.bags.replay_reading import recorded_events
     from observer_ros.core.events import INPUT
     # Measurements that reach the recorder 2.5 periods after their stamps, each command
     # just after the measurement of the sample it acts from: stamped on arrival, it would

@@ -122,7 +122,7 @@ def test_vargas_method_gives_control_place_vargas_gain_bit_for_bit():
     # python-control; the gains are the same to the last bit (repeated poles included).
     control = pytest.importorskip('control')
     pytest.importorskip('slycot')
-    from observer_ros.core.placement import _varga
+    from observer_ros.core.placement_methods import _varga
     rng = np.random.default_rng(1)
     for n_states, n_inputs in [(2, 1), (3, 1), (4, 2), (6, 3), (10, 1)]:
         for case in range(6):

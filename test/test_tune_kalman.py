@@ -24,8 +24,8 @@ import yaml
 from bag_support import JOINT_STATE, joint_state, serialize, TYPES, TYPESTORE
 from conftest import CONFIG_DIR
 from observer_ros.bags.replay import replay_bag
-from observer_ros.bags.storage import TopicToWrite, write_bag
 from observer_ros.bags.tuning import TunedFilterError
+from observer_ros.bags.writing import TopicToWrite, write_bag
 from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.errors import DesignError
 from observer_ros.core.flat_matrices import covariance_from_flat

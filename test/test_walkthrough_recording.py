@@ -22,7 +22,7 @@ from rosbags.highlevel import AnyReader
 from rosbags.typesys import get_typestore, Stores
 
 from conftest import REPOSITORY
-from observer_ros.bags.storage import read_topic
+from observer_ros.bags.reading import read_topic
 from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.tools.identify import main as identify
 from observer_ros.tools.tune_kalman import main as tune_kalman

@@ -32,7 +32,7 @@ from typing import Optional
 import numpy as np
 import yaml
 
-from observer_ros.bags.storage import TopicToWrite, write_bag
+from observer_ros.bags.writing import TopicToWrite, write_bag
 from observer_ros.core.discretize import van_loan, zero_order_hold
 from observer_ros.core.observers.kalman import NAME as KALMAN
 from observer_ros.core.units import NANOSECONDS, seconds_to_ns

@@ -35,9 +35,9 @@ from typing import Optional, Sequence, Union
 
 import numpy as np
 
-from observer_ros.bags.replay import check_time_bases, log_timed
 from observer_ros.bags.signals import PERIOD_TOLERANCE, read_signals, SignalSpec
 from observer_ros.bags.storage import BagError
+from observer_ros.bags.time_bases import check_time_bases, log_timed
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.rules import InputHistory
 from observer_ros.core.tuning.identified_model import Record

@@ -17,7 +17,7 @@ Where a replay's results go: a new bag and a CSV file, checked first, all or not
 
 :func:`check_outputs` refuses, before anything is written, an output path that cannot be
 written; :func:`write_replay` writes ``x_hat`` (and the innovation) of a
-:class:`~observer_ros.bags.replay.ReplayResult`, each output under a temporary name renamed
+:class:`~observer_ros.bags.replay_results.ReplayResult`, each output under a temporary name renamed
 into place, and removes what it wrote when a later one fails.
 """
 
@@ -28,8 +28,9 @@ from typing import Optional
 
 import numpy as np
 
-from observer_ros.bags.replay import ReplayResult
-from observer_ros.bags.storage import BagError, STORAGES, TopicToWrite, write_bag
+from observer_ros.bags.replay_results import ReplayResult
+from observer_ros.bags.storage import BagError, STORAGES
+from observer_ros.bags.writing import TopicToWrite, write_bag
 
 
 def missing_parents(path: Path) -> list:

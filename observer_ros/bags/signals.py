@@ -28,8 +28,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from observer_ros.bags.storage import (
-    absolute_topic, BagError, Playback, read_topics, topic_layout, TopicData, TopicRequest)
+from observer_ros.bags.reading import read_topics, topic_layout, TopicRequest
+from observer_ros.bags.storage import absolute_topic, BagError, Playback, TopicData
 from observer_ros.wire import (
     DecodeError, field_names, FieldPathError, FieldReader, find, TYPE_NAMES)
 

@@ -13,30 +13,21 @@
 # limitations under the License.
 
 """
-Read and write vector topics of rosbag2 bags (MCAP or sqlite3) with ``rosbags``.
+Opening rosbag2 bags (MCAP or sqlite3) with ``rosbags``: their layout, topics and messages.
 
-The messages of MCAP bags are read with :mod:`observer_ros.bags.mcap` (one pass, several
-times faster); the bag's metadata and connections, and sqlite3 messages, come from
-``rosbags``.
-
-Reading checks what it finds against what was asked (topic present, message type, vector
-length) and against the bag's own metadata (message counts), and says what is wrong with
-the bag's path and topic in the message. Writing goes to a temporary directory renamed into
-place when complete, so a failed write never leaves a bag that looks valid.
+What ``rosbags`` opens for a path (a bag directory, one storage file, version-1 metadata),
+the connections as the storage files record them, and :class:`Playback`, a bag's raw
+messages in log-time order; with the bag's errors (:class:`BagError`), the one rule for
+topic names (:func:`absolute_topic`) and the vectors read (:class:`TopicData`). Reading
+vector topics is :mod:`observer_ros.bags.reading`, writing them
+:mod:`observer_ros.bags.writing`.
 """
 
 from dataclasses import dataclass
-import os
 from pathlib import Path, PurePath
-import shutil
-import tempfile
 from typing import Iterator, Optional, Sequence, Tuple
 
 import numpy as np
-
-from observer_ros.bags.mcap import read_mcap_topics
-from observer_ros.wire import (
-    decode, DecodeError, Encoder, full_type_name, message_types, parse_layout, vector_layout)
 
 STORAGES = ('mcap', 'sqlite3')
 
@@ -49,19 +40,6 @@ class BagError(ValueError):
 class TopicData:
     """One topic's vectors: header stamps (log time when unstamped), log times, values."""
 
-    stamps_ns: np.ndarray
-    log_times_ns: np.ndarray
-    values: np.ndarray
-
-
-@dataclass(frozen=True)
-class TopicToWrite:
-    """A vector topic to write: name, message kind, field, joint names and the data."""
-
-    topic: str
-    kind: str
-    field: str
-    names: Sequence[str]
     stamps_ns: np.ndarray
     log_times_ns: np.ndarray
     values: np.ndarray
@@ -304,219 +282,3 @@ class Playback:
     def close(self) -> None:
         """Close the bag."""
         self._reader.close()
-
-
-@dataclass(frozen=True)
-class TopicRequest:
-    """A vector topic to read: name, message kind, JointState field and joint names."""
-
-    topic: str
-    kind: str
-    field: str
-    names: Sequence[str]
-
-
-def read_topic(path, topic: str, kind: str, field: str, names: Sequence[str]) -> TopicData:
-    """
-    Read one vector topic.
-
-    Parameters
-    ----------
-    path : path-like
-        The bag directory (or its storage file).
-    topic : str
-        Topic name (relative names are taken from the root, as recorded).
-    kind : str
-        A vector type of the wire catalog (``joint_state``, ``float64_multi_array``).
-    field : str
-        JointState field with the values.
-    names : sequence of str
-        Joint names in vector order (their count for Float64MultiArray).
-
-    Raises
-    ------
-    BagError
-        Unreadable bag, missing topic (the topics present are listed), wrong type, no
-        messages, fewer messages than the metadata counts, or messages without the vector.
-
-    """
-    return read_topics(path, [TopicRequest(topic, kind, field, names)])[0]
-
-
-def read_topics(path, requests: Sequence[TopicRequest]) -> list:
-    """
-    Read several vector topics in one pass over the bag; see :func:`read_topic`.
-
-    Returns
-    -------
-    list of TopicData
-        In the order of ``requests``.
-
-    """
-    requests = [TopicRequest(absolute_topic(r.topic), r.kind, r.field, r.names) for r in requests]
-    reader = _reader(path)
-    try:
-        by_topic = {}
-        for request in requests:
-            connections = [c for c in reader.connections
-                           if absolute_topic(c.topic) == request.topic]
-            if not connections:
-                raise BagError(f'{path}: no topic {request.topic}; the bag has '
-                               f'{_listing(reader)}')
-            types = {message_type(c.msgtype) for c in connections}
-            expected = full_type_name(request.kind)
-            if types != {expected}:
-                raise BagError(f'{path}: topic {connections[0].topic} holds '
-                               f'{", ".join(sorted(types))}, expected {expected} (set '
-                               f'topics.<topic>.type to match)')
-            by_topic[request.topic] = connections
-        files = _mcap_files(reader)
-        if files is not None:
-            collected = read_mcap_topics(files, list(by_topic), key=absolute_topic)
-        else:
-            wanted = [c for c in _stored_connections(reader)
-                      if absolute_topic(c.topic) in by_topic]
-            collected = {topic: ([], []) for topic in by_topic}
-            messages = reader.messages(connections=wanted) if wanted else ()
-            for connection, log_time, raw in messages:
-                times, raws = collected[absolute_topic(connection.topic)]
-                times.append(log_time)
-                raws.append(raw)
-    except BagError:
-        raise
-    except Exception as e:
-        raise BagError(f'{path}: cannot read topics {", ".join(r.topic for r in requests)} '
-                       f'({e})') from e
-    finally:
-        reader.close()
-    return [_decoded(path, request, by_topic[request.topic], *collected[request.topic])
-            for request in requests]
-
-
-def topic_layout(path, topic: str, field: str = 'position') -> TopicRequest:
-    """
-    Return what to read for a vector topic, found from the bag: its kind and entry names.
-
-    A JointState topic gives the joint names of its first message, a Float64MultiArray the
-    count of its first vector (named ``<topic>1 ..``).
-
-    Raises
-    ------
-    BagError
-        Unreadable bag, no such topic (the topics present listed), another message type,
-        or a first message that cannot be decoded.
-
-    """
-    wanted = absolute_topic(topic)
-    kinds = {entry.msgtype: entry.name for entry in message_types() if entry.vector}
-    reader = _reader(path)
-    try:
-        connections = [c for c in reader.connections if absolute_topic(c.topic) == wanted]
-        if not connections:
-            raise BagError(f'{path}: no topic {wanted}; the bag has {_listing(reader)}')
-        types = {message_type(c.msgtype) for c in connections}
-        if len(types) != 1 or next(iter(types)) not in kinds:
-            raise BagError(f'{path}: topic {wanted} holds {", ".join(sorted(types))}; expected '
-                           f'one of {", ".join(sorted(kinds))}')
-        kind = kinds[next(iter(types))]
-        stored = [c for c in _stored_connections(reader) if absolute_topic(c.topic) == wanted]
-        first = next(iter(reader.messages(connections=stored)), None)
-    except BagError:
-        raise
-    except Exception as e:
-        raise BagError(f'{path}: cannot read topic {wanted} ({e})') from e
-    finally:
-        reader.close()
-    if first is None:
-        raise BagError(f'{path}: topic {wanted} has no messages')
-    try:
-        layout = parse_layout(first[2], kind)
-    except DecodeError as e:
-        raise BagError(f'{path}: topic {wanted}: first message: {e}') from e
-    shape = vector_layout(kind)
-    if shape.named:
-        if field not in layout.arrays or layout.arrays[field][1] != len(layout.names):
-            raise BagError(f'{path}: topic {wanted}: the first message has no {field} per '
-                           f'joint ({list(layout.names)})')
-        return TopicRequest(wanted, kind, field, tuple(layout.names))
-    count = layout.arrays[shape.array(field)][1]
-    base = wanted.strip('/').replace('/', '_')
-    return TopicRequest(wanted, kind, field, tuple(f'{base}{i + 1}' for i in range(count)))
-
-
-def _decoded(path, request: TopicRequest, connections, log_times: list,
-             raws: list) -> TopicData:
-    topic, names = connections[0].topic, request.names  # as the bag records it
-    counted = sum(c.msgcount for c in connections)
-    if not raws:
-        raise BagError(f'{path}: topic {topic} has no messages' + (
-            f' although the metadata counts {counted}' if counted else ''))
-    if counted and len(raws) != counted:
-        raise BagError(f'{path}: topic {topic}: read {len(raws)} messages but the metadata '
-                       f'counts {counted}; the bag is damaged or its QoS records disagree')
-    stamps, values, errors = decode(raws, request.kind, request.field, names)
-    if errors:
-        index, reason = next(iter(sorted(errors.items())))
-        raise BagError(f'{path}: topic {topic}: {len(errors)} of {len(raws)} messages do not '
-                       f'hold the {len(names)}-vector {list(names)} (first, message {index}: '
-                       f'{reason})')
-    log_times = np.array(log_times, dtype=np.int64)
-    stamps = np.where(stamps == 0, log_times, stamps)
-    return TopicData(stamps, log_times, values)
-
-
-def _qos():
-    from rosbags.interfaces import (
-        Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime)
-    zero = QosTime(0, 0)
-    return [Qos(QosHistory.KEEP_LAST, 10, QosReliability.RELIABLE, QosDurability.VOLATILE,
-                zero, zero, QosLiveliness.AUTOMATIC, zero, False)]
-
-
-def write_bag(path, topics: Sequence[TopicToWrite], storage: str = 'mcap') -> Path:
-    """
-    Write vector topics to a new bag directory at ``path``.
-
-    Messages are written in log-time order with the reliable QoS the nodes publish with,
-    so ``ros2 bag play`` offers them as recorded.
-
-    Raises
-    ------
-    BagError
-        ``path`` exists, or an unknown storage.
-
-    """
-    from rosbags.rosbag2 import StoragePlugin, Writer
-    if storage not in STORAGES:
-        raise BagError(f'storage: expected one of {", ".join(STORAGES)}, got {storage!r}')
-    path = Path(path)
-    if path.exists():
-        raise BagError(f'{path}: exists already; choose a new output path')
-    path.parent.mkdir(parents=True, exist_ok=True)
-    scratch = Path(tempfile.mkdtemp(prefix=f'.{path.name}.', dir=path.parent))
-    partial = scratch / path.name
-    plugin = StoragePlugin.MCAP if storage == 'mcap' else StoragePlugin.SQLITE3
-    try:
-        with Writer(partial, version=9, storage_plugin=plugin) as writer:
-            streams = []
-            for item in topics:
-                encoder = Encoder(item.kind, item.names, item.field)
-                connection = writer.add_connection(
-                    absolute_topic(item.topic), encoder.msgtype, typestore=encoder.typestore,
-                    offered_qos_profiles=_qos())
-                raws = encoder.encode(item.stamps_ns, item.values)
-                streams.append((np.asarray(item.log_times_ns, dtype=np.int64), connection,
-                                raws))
-            times = np.concatenate([s[0] for s in streams]) if streams else np.zeros(0)
-            which = np.concatenate([np.full(len(s[0]), k) for k, s in enumerate(streams)]
-                                   ) if streams else np.zeros(0, dtype=int)
-            position = np.concatenate([np.arange(len(s[0])) for s in streams]
-                                      ) if streams else np.zeros(0, dtype=int)
-            write = writer.write
-            for k in np.lexsort((which, times)).tolist():
-                stream = streams[which[k]]
-                write(stream[1], int(times[k]), stream[2][position[k]])
-        os.replace(partial, path)
-    finally:
-        shutil.rmtree(scratch, ignore_errors=True)
-    return path

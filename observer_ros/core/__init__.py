@@ -140,9 +140,8 @@ _EXPORTS = {
     'observer_ros.core.poles': (
         'parse_poles', 'parse_pole', 'damping_pair', 'clean_poles', 'is_stable',
         'to_discrete', 'slowest_allowed_pole', 'poles_meeting_error_spec'),
-    'observer_ros.core.placement': (
-        'METHODS', 'PlacementResult', 'place', 'place_observer', 'placement_residual',
-        'sort_poles'),
+    'observer_ros.core.placement': ('METHODS', 'PlacementResult', 'place', 'place_observer'),
+    'observer_ros.core.placement_checks': ('placement_residual', 'sort_poles'),
     'observer_ros.core.design.common': ('ObserverDesign', 'ObserverRealization',
                                         'predictor_realization'),
     'observer_ros.core.observers.full_order.design': (

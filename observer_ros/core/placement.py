@@ -46,28 +46,19 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from observer_ros.core.errors import ConfigError, DesignError
+from observer_ros.core.placement_checks import (
+    has_repeated, max_multiplicity, placement_residual, sort_poles)
+from observer_ros.core.placement_methods import _ALGORITHMS, _SINGLE_INPUT_ONLY, LARGE_STATES
 from observer_ros.core.poles import check_conjugate_pairs, clean_poles
-from observer_ros.core.ranks import controllability_matrix, format_modes
+from observer_ros.core.ranks import format_modes
 
 METHODS = ('auto', 'place', 'varga', 'acker', 'direct', 'canonical')
 
 #: Default relative accuracy every achieved pole set must meet.
 DEFAULT_RTOL = 1e-6
 
-#: Relative distance under which poles are treated as one (nearly) repeated cluster, both
-#: for choosing the method and for verifying the result.
-CLUSTER_RTOL = 1e-3
-
-#: Relative distance under which two poles are the same repeated pole (Jordan chains).
-REPEATED_RTOL = 1e-6
-
 #: Above this many states the single-input closed forms are not tried by ``'auto'``.
 CLOSED_FORM_MAX_STATES = 12
-
-#: Above this many states ``'auto'`` tries Varga's method first and ``'place'`` iterates
-#: only :data:`LARGE_MAXITER` times.
-LARGE_STATES = 24
-LARGE_MAXITER = 3
 
 
 @dataclass(frozen=True)
@@ -102,210 +93,6 @@ class PlacementResult:
     achieved_poles: np.ndarray
     method: str
     residual: float
-
-
-def sort_poles(poles) -> np.ndarray:
-    """
-    Sort by real part, then imaginary part, for side-by-side comparison.
-
-    Parameters
-    ----------
-    poles : array_like of complex, shape (k,)
-
-    Returns
-    -------
-    numpy.ndarray of complex, shape (k,)
-
-    Examples
-    --------
-    >>> import observer_ros.core as oc
-    >>> oc.sort_poles([-1, -3 + 1j, -3 - 1j]).tolist()
-    [(-3-1j), (-3+1j), (-1+0j)]
-
-    """
-    poles = np.asarray(poles, dtype=complex)
-    return poles[np.lexsort((poles.imag, poles.real))]
-
-
-def pole_clusters(poles: np.ndarray, rtol: float = CLUSTER_RTOL) -> list:
-    """
-    Group poles closer than ``rtol`` (relative, single linkage) into clusters.
-
-    Returns
-    -------
-    list of numpy.ndarray of int
-        Indices of each cluster.
-
-    """
-    poles = np.asarray(poles, dtype=complex)
-    labels = list(range(poles.size))
-    for i in range(poles.size):
-        for j in range(i + 1, poles.size):
-            scale = max(1.0, abs(poles[i]), abs(poles[j]))
-            if abs(poles[i] - poles[j]) <= rtol * scale and labels[i] != labels[j]:
-                old, new = labels[j], labels[i]
-                labels = [new if label == old else label for label in labels]
-    groups: dict = {}
-    for index, label in enumerate(labels):
-        groups.setdefault(label, []).append(index)
-    return [np.array(group) for group in groups.values()]
-
-
-def max_multiplicity(poles: np.ndarray, rtol: float = CLUSTER_RTOL) -> int:
-    """Size of the largest cluster of (nearly) equal poles."""
-    return max((group.size for group in pole_clusters(poles, rtol)), default=0)
-
-
-def has_repeated(poles: np.ndarray, rtol: float = CLUSTER_RTOL) -> bool:
-    """Whether two poles are equal, or nearly, to within ``rtol`` relative."""
-    return max_multiplicity(poles, rtol) > 1
-
-
-def placement_residual(closed_loop: np.ndarray, poles: np.ndarray) -> tuple[float, np.ndarray]:
-    """
-    Relative error between ``eig(closed_loop)`` and ``poles``.
-
-    Eigenvalues are matched to the requested poles one to one. A pole standing alone is
-    compared directly. A cluster of repeated or nearly repeated poles, whose computed
-    eigenvalues scatter by ``eps^(1/k)`` even for an exact gain, is compared through the
-    coefficients of its polynomial shifted to the cluster centre, each scaled by
-    ``max(1, |centre|)^j``: the symmetric functions of a cluster are as accurate as the
-    matrix, its individual eigenvalues are not.
-
-    Parameters
-    ----------
-    closed_loop : array_like, shape (n, n)
-        ``A - B K`` or ``A - L C``.
-    poles : array_like of complex, shape (n,)
-        The requested poles.
-
-    Returns
-    -------
-    residual : float
-    achieved : numpy.ndarray of complex, shape (n,)
-        Eigenvalues, sorted.
-
-    Examples
-    --------
-    >>> import observer_ros.core as oc
-    >>> residual, achieved = oc.placement_residual([[-2, 1], [0, -2]], [-2, -2])
-    >>> residual, achieved.tolist()
-    (0.0, [(-2+0j), (-2+0j)])
-
-    """
-    achieved = sort_poles(np.linalg.eigvals(closed_loop))
-    poles = np.asarray(poles, dtype=complex)
-    if not np.all(np.isfinite(achieved)):
-        return float('inf'), achieved
-    cost = np.abs(achieved[:, None] - poles[None, :])
-    from scipy.optimize import linear_sum_assignment  # lazily: see preload_methods
-    rows, cols = linear_sum_assignment(cost)
-    matched = np.empty_like(poles)
-    matched[cols] = achieved[rows]
-    residual = 0.0
-    for group in pole_clusters(poles):
-        wanted, got = poles[group], matched[group]
-        centre = wanted.mean()
-        scale = max(1.0, abs(centre))
-        if group.size == 1:
-            residual = max(residual, abs(got[0] - wanted[0]) / scale)
-            continue
-        powers = scale ** -np.arange(group.size + 1)
-        difference = (np.poly(got - centre) - np.poly(wanted - centre)) * powers
-        residual = max(residual, float(np.abs(difference).max()))
-    return residual, achieved
-
-
-def _acker(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
-    n_states = a.shape[0]
-    ctrb = controllability_matrix(a, b)
-    coefficients = np.real(np.poly(poles))
-    phi = np.zeros_like(a)
-    for coefficient in coefficients:
-        phi = phi @ a + coefficient * np.eye(n_states)
-    last_row = np.linalg.solve(ctrb.T, np.eye(n_states)[:, -1])
-    return (last_row @ phi).reshape(1, n_states)
-
-
-def _direct(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
-    # det(sI - A + b k) is affine in k for one input: c(k) = c(0) + M k.
-    n_states = a.shape[0]
-    open_loop = np.real(np.poly(a))[1:]
-    columns = [np.real(np.poly(a - np.outer(b[:, 0], unit)))[1:] - open_loop
-               for unit in np.eye(n_states)]
-    wanted = np.real(np.poly(poles))[1:]
-    return np.linalg.solve(np.column_stack(columns), wanted - open_loop).reshape(1, n_states)
-
-
-def _canonical(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
-    # Bass-Gura: K = (alpha - a) W^-1 Ctrb^-1, W the Hankel matrix of the open-loop
-    # coefficients (the transformation to controllable canonical form).
-    n_states = a.shape[0]
-    open_loop = np.real(np.poly(a))[1:]
-    wanted = np.real(np.poly(poles))[1:]
-    hankel = np.zeros((n_states, n_states))
-    extended = np.concatenate([open_loop[::-1][1:], [1.0]])
-    for row in range(n_states):
-        hankel[row, :n_states - row] = extended[row:]
-    ctrb = controllability_matrix(a, b)
-    difference = (wanted - open_loop)[::-1]
-    return np.linalg.solve((ctrb @ hankel).T, difference).reshape(1, n_states)
-
-
-def _scipy_place(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
-    maxiter = 50 if a.shape[0] <= LARGE_STATES else LARGE_MAXITER
-    from scipy.signal import place_poles  # lazily: see preload_methods
-    result = place_poles(a, b, poles, method='YT', maxiter=maxiter)
-    return np.asarray(result.gain_matrix)
-
-
-def preload_methods() -> None:
-    """
-    Import what the placement methods need (scipy.signal, scipy.optimize, slycot), now.
-
-    The core imports them only when a placement is first made: ``scipy.signal`` alone takes
-    0.4-1.7 s (it pulls in scipy.stats), which a node that designs nothing by placement
-    (a Kalman filter, the plant) should not pay at start-up. Nodes that may place poles
-    call this at start-up, so that no design on a callback path (a new ``observer.method``
-    or poles set at run time, a design per sample interval) pays for an import. Varga's
-    method calls SLICOT through slycot directly, not through python-control, whose import
-    takes matplotlib with it (another 0.4 s).
-
-    Examples
-    --------
-    >>> from observer_ros.core.placement import preload_methods
-    >>> preload_methods()
-
-    """
-    import scipy.optimize  # noqa: F401
-    import scipy.signal  # noqa: F401
-    try:
-        import slycot  # noqa: F401
-    except ImportError:  # Varga's method then fails as an attempt, naming the import
-        pass
-
-
-def _varga(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
-    # control.place_varga's call of SLICOT SB01BD, without importing python-control (and
-    # matplotlib with it): the same arguments, the same alpha rule, the same -F.
-    from slycot import sb01bd  # imported lazily so the core imports without slycot
-    a, b = np.array(a, dtype=float), np.array(b, dtype=float)  # copies, as control's
-    placed = np.atleast_1d(np.squeeze(np.asarray(poles)))
-    alpha = -2 * abs(min(np.linalg.eig(a)[0].real))
-    _, _, _, _, _, feedback, _ = sb01bd(b.shape[0], b.shape[1], len(placed), alpha, a, b,
-                                        placed, 'C')
-    return -feedback
-
-
-_ALGORITHMS = {
-    'place': _scipy_place,
-    'varga': _varga,
-    'acker': _acker,
-    'direct': _direct,
-    'canonical': _canonical,
-}
-
-_SINGLE_INPUT_ONLY = ('acker', 'direct', 'canonical')
 
 
 def _candidates(method: str, n_states: int, n_inputs: int, poles: np.ndarray) -> list:

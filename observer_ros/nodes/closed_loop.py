@@ -35,7 +35,8 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 
 from observer_ros.app.plots import write_run_report
-from observer_ros.bags.storage import BagError, STORAGES, TopicToWrite, write_bag
+from observer_ros.bags.storage import BagError, STORAGES
+from observer_ros.bags.writing import TopicToWrite, write_bag
 from observer_ros.config import Configuration, validate_parameters
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.nodes.observer import ObserverNode

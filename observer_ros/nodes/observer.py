@@ -45,7 +45,7 @@ from observer_ros.app.health import sources_check
 from observer_ros.config import OBSERVER
 from observer_ros.core.errors import ConfigError, ObserverRosError
 from observer_ros.core.estimators.intervals import IntervalDesigns
-from observer_ros.core.placement import preload_methods
+from observer_ros.core.placement_methods import preload_methods
 from observer_ros.core.rules import within_limit
 from observer_ros.core.units import NANOSECONDS, rate_to_period_ns
 from observer_ros.ros.diagnostics import monitor, NodeHealth

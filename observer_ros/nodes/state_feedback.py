@@ -51,7 +51,7 @@ from rclpy.clock import Clock, ClockType
 from observer_ros.config import FEEDBACK
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.feedback_law import IntegralAction, StateFeedbackLaw
-from observer_ros.core.placement import preload_methods
+from observer_ros.core.placement_methods import preload_methods
 from observer_ros.core.rules import within_limit
 from observer_ros.core.units import NANOSECONDS, seconds_to_ns
 from observer_ros.ros.diagnostics import monitor, NodeHealth

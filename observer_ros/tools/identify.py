@@ -37,8 +37,8 @@ from observer_ros.app.parallel import add_worker_arguments, single_threaded_blas
 from observer_ros.app.run_report import fit_figure, HtmlReport, singular_values_figure
 from observer_ros.bags.filter_config import model_document, write_validated
 from observer_ros.bags.identification import HOLDOUT, Identification, identify_bags, SignalSpec
+from observer_ros.bags.reading import TopicRequest
 from observer_ros.bags.signals import PERIOD_TOLERANCE
-from observer_ros.bags.storage import TopicRequest
 from observer_ros.config.schema import INPUT_MESSAGE_TYPES
 from observer_ros.core.tuning.subspace import FEEDTHROUGH_CHOICES, order_advice
 from observer_ros.signals import stops_on_signal

@@ -44,9 +44,10 @@ from observer_ros.app.parallel import add_worker_arguments, task_mapper
 from observer_ros.app.plots import write_run_report
 from observer_ros.app.run_report import filter_run_section, HtmlReport
 from observer_ros.bags.collection import expand_bags
-from observer_ros.bags.replay import load_system, reference_rmse, replay_bag, StateReference
+from observer_ros.bags.replay import load_system, replay_bag
 from observer_ros.bags.replay_outputs import (
     check_outputs, COVARIANCE_COLUMNS, made_directories, remove_outputs, write_replay)
+from observer_ros.bags.replay_results import reference_rmse, StateReference
 from observer_ros.bags.storage import BagError, STORAGES
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.evaluation import align, settling_time

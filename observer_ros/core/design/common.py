@@ -21,7 +21,7 @@ import numpy as np
 
 from observer_ros.core.errors import DesignError
 from observer_ros.core.model import StateSpaceModel
-from observer_ros.core.placement import sort_poles
+from observer_ros.core.placement_checks import sort_poles
 from observer_ros.core.poles import is_stable
 from observer_ros.core.ranks import format_modes
 

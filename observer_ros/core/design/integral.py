@@ -30,7 +30,8 @@ import numpy as np
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.flat_matrices import matrix_from_flat
 from observer_ros.core.model import StateSpaceModel
-from observer_ros.core.placement import place, sort_poles
+from observer_ros.core.placement import place
+from observer_ros.core.placement_checks import sort_poles
 from observer_ros.core.poles import is_stable
 from observer_ros.core.ranks import format_modes, require_controllable
 

@@ -25,7 +25,7 @@ import scipy.linalg
 from observer_ros.core.design.common import ObserverRealization
 from observer_ros.core.loop_analysis.observer_controller import controller_state_space
 from observer_ros.core.model import StateSpaceModel
-from observer_ros.core.placement import sort_poles
+from observer_ros.core.placement_checks import sort_poles
 
 
 def closed_loop_matrix(model: StateSpaceModel, realization: ObserverRealization,

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from observer_ros.core.placement import sort_poles
+from observer_ros.core.placement_checks import sort_poles
 from observer_ros.core.poles import clean_poles, is_stable
 
 #: Leading numerator coefficients below this (relative to the largest) are dropped.

@@ -43,7 +43,7 @@ from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.observers.chen.sylvester import (
     _checked_inverse, _require_separated, DEFAULT_SEED, orthonormal_chen, real_block_matrix,
     solve_chen)
-from observer_ros.core.placement import placement_residual, sort_poles
+from observer_ros.core.placement_checks import placement_residual, sort_poles
 from observer_ros.core.poles import clean_poles
 
 

@@ -29,7 +29,7 @@ from observer_ros.core.estimators.constant_gain import (
     assemble_step, least_norm_consistent, StepDesign, StepMatrices)
 from observer_ros.core.observers.chen.design import ChenDesign
 from observer_ros.core.observers.chen.sylvester import solve_chen
-from observer_ros.core.placement import sort_poles
+from observer_ros.core.placement_checks import sort_poles
 from observer_ros.core.poles import clean_poles
 
 

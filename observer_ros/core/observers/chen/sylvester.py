@@ -27,7 +27,7 @@ import numpy as np
 import scipy.linalg
 
 from observer_ros.core.errors import DesignError
-from observer_ros.core.placement import REPEATED_RTOL, sort_poles
+from observer_ros.core.placement_checks import REPEATED_RTOL, sort_poles
 from observer_ros.core.poles import clean_poles
 from observer_ros.core.ranks import format_modes, pbh_lost_modes
 

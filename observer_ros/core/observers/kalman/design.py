@@ -39,7 +39,7 @@ from observer_ros.core.discretize import van_loan, zero_order_hold
 from observer_ros.core.errors import ConfigError, DesignError
 from observer_ros.core.flat_matrices import covariance_from_flat
 from observer_ros.core.model import StateSpaceModel
-from observer_ros.core.placement import sort_poles
+from observer_ros.core.placement_checks import sort_poles
 
 
 @dataclass(frozen=True)
