@@ -54,7 +54,7 @@ from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.nonlinear.filter import DEFAULT_MAX_STEP
 from observer_ros.core.nonlinear.model import NonlinearModel
 from observer_ros.core.simulation import input_limits_from_flat
-from observer_ros.core.units import NANOSECONDS
+from observer_ros.core.units import NANOSECONDS, seconds_to_ns
 
 __all__ = ['ClosedLoopRun', 'EQUILIBRIUM_RTOL', 'NonlinearPlantSimulator', 'arm_joint',
            'integrate', 'linearize', 'rk4_steps', 'simulate_observer_controller']
@@ -459,7 +459,7 @@ def simulate_observer_controller(plant: NonlinearPlantSimulator, estimator, gain
         raise ConfigError('samples', f'expected a count >= 1, got {samples!r}')
     angles = list(getattr(model, 'angle_states', ()) if angle_states is None
                   else angle_states)
-    period_ns = int(round(period * NANOSECONDS))
+    period_ns = seconds_to_ns(period, 'period')
     records = {name: [] for name in ('stamps', 'states', 'estimates', 'commands', 'outputs')}
     held = u0.copy()
     for k in range(samples):
