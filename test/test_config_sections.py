@@ -32,10 +32,10 @@ import observer_ros
 from observer_ros.config import (
     ALL_NODES, Augmentation, Configuration, node_parameters, NODE_PARTS, PARAMETERS, PARTS,
     Sections, validate_parameters)
+from observer_ros.config.binding import PARAMETER, SECTION
 from observer_ros.config.schema import PARAMETER_SPECS
 from observer_ros.config.sections import (
-    FeedbackSection, IntegralSection, ModelSection, ObserverSection, PARAMETER, PlantSection,
-    SECTION)
+    FeedbackSection, IntegralSection, ModelSection, ObserverSection, PlantSection)
 from observer_ros.core import arguments, make_estimator
 from observer_ros.core.arguments import (
     BOOL, DOUBLE, DOUBLE_ARRAY, INTEGER, STRING, STRING_ARRAY)
@@ -241,15 +241,15 @@ def test_the_configuration_answers_what_the_other_code_asks():
 
 
 def test_the_bindings_and_the_settings_by_name_are_one_read_only_mapping():
-    from observer_ros.config import sections
-    for kind in (sections.Binding, sections.SettingsByName, sections.TopicsSection,
-                 sections.SourcesSection):
-        assert issubclass(kind, sections.ReadOnlyMapping)
+    from observer_ros.config import binding as bindings, topic_sections
+    for kind in (bindings.Binding, topic_sections.SettingsByName,
+                 topic_sections.TopicsSection, topic_sections.SourcesSection):
+        assert issubclass(kind, bindings.ReadOnlyMapping)
         for method in ('__init__', '__getitem__', '__iter__', '__len__'):
-            assert getattr(kind, method) is getattr(sections.ReadOnlyMapping, method), (
+            assert getattr(kind, method) is getattr(bindings.ReadOnlyMapping, method), (
                 kind, method)
     given = {'poles': 'observer.poles'}
-    binding = sections.Binding(given)
+    binding = bindings.Binding(given)
     given['gain'] = 'observer.gain'  # a copy: the caller's dict changes nothing
     assert dict(binding) == {'poles': 'observer.poles'} and len(binding) == 1
     joined = binding | {'gain': 'feedback.gain'}

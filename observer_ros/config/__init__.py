@@ -29,6 +29,7 @@ ROS-free (numpy, PyYAML and the core), shared by the nodes, the design CLI and t
   (:class:`PlantSettings`) and the loop analysis (:class:`LoopAnalysis`).
 """
 
+from observer_ros.config.binding import Binding
 from observer_ros.config.configuration import (
     Configuration, NODE_PARTS, PARTS, validate_parameters)
 from observer_ros.config.feedback import FeedbackSettings
@@ -37,13 +38,15 @@ from observer_ros.config.loader import (
 from observer_ros.config.loop import LoopAnalysis
 from observer_ros.config.model import Augmentation
 from observer_ros.config.observer import JointStateSelection, ObserverSetup
+from observer_ros.config.parameter_check import complete_parameters
 from observer_ros.config.plant import PlantSettings
 from observer_ros.config.schema import (
     ALL_NODES, COMBINED_NODES, CONTROLLER, CONTROLLER_INPUTS, COVARIANCE_LIMIT, FEEDBACK,
     JOINT_STATE_FIELDS, MESSAGE_TYPES, node_parameters, OBSERVER, OBSERVER_ARGUMENTS,
     PARAMETER_SPECS, parameter_table,
     PARAMETERS, ParameterSpec, PLANT, ROS_PARAMETERS, TOPIC_ROLES, TOPICS, VALUE_LIMIT)
-from observer_ros.config.sections import Binding, complete_parameters, Sections, TopicSettings
+from observer_ros.config.sections import Sections
+from observer_ros.config.topic_sections import TopicSettings
 from observer_ros.core.arguments import (
     BOOL, DOUBLE, DOUBLE_ARRAY, INTEGER, STRING, STRING_ARRAY)
 

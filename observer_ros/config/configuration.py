@@ -32,9 +32,10 @@ from observer_ros.config.model import Augmentation
 from observer_ros.config.node_specs import node_parts
 from observer_ros.config.observer import observer_design, ObserverSetup
 from observer_ros.config.plant import plant_settings, PlantSettings
-from observer_ros.config.sections import DiagnosticsSection, Sections, TopicsSection
+from observer_ros.config.sections import DiagnosticsSection, Sections
 from observer_ros.config.sources import check_input_fields
 from observer_ros.config.timing import check_sample_period, sample_rate
+from observer_ros.config.topic_sections import TopicsSection
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.streaming import EventStream

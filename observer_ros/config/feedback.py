@@ -27,8 +27,7 @@ from typing import Optional
 import numpy as np
 
 from observer_ros.config.model import Augmentation
-from observer_ros.config.sections import (
-    FeedbackSection, IntegralSection, ModelSection, Sections)
+from observer_ros.config.sections import FeedbackSection, IntegralSection, ModelSection, Sections
 from observer_ros.config.values import check_inside, indices, input_limits
 from observer_ros.core.design.feedback import design_feedback, FeedbackDesign
 from observer_ros.core.design.integral import design_integral, IntegralDesign

@@ -17,7 +17,7 @@ The observer of a configuration: its design, and the estimator and stream made f
 
 The path of an observer parameter (``observer.poles``) to the estimate:
 
-1. :func:`~observer_ros.config.sections.complete_parameters` checks the value once, and
+1. :func:`~observer_ros.config.parameter_check.complete_parameters` checks the value once, and
    :class:`~observer_ros.config.sections.ObserverSection` holds it by its argument name
    (``arguments['poles']``);
 2. :func:`observer_design` hands the type's arguments to its design function
@@ -40,9 +40,10 @@ from typing import Iterator, Optional
 
 import numpy as np
 
+from observer_ros.config.binding import Binding
 from observer_ros.config.model import Augmentation
 from observer_ros.config.sections import (
-    Binding, JointStatesSection, ModelSection, ObserverSection, Sections)
+    JointStatesSection, ModelSection, ObserverSection, Sections)
 from observer_ros.config.sources import measurement_sources, SOURCE_ARGUMENTS, SourcesSetup
 from observer_ros.config.values import check_inside, indices
 from observer_ros.core.angles import Angles

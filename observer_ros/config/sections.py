@@ -16,288 +16,37 @@
 The parameters as typed sections, made from the one schema.
 
 A parameter set is checked once, parameter by parameter, with the schema's
-:class:`~observer_ros.config.schema.ParameterSpec` (:func:`complete_parameters`), and read
-into frozen dataclasses, one per section: :class:`ModelSection`, :class:`ObserverSection`,
+:class:`~observer_ros.config.schema.ParameterSpec`
+(:func:`~observer_ros.config.parameter_check.complete_parameters`), and read into frozen
+dataclasses, one per section: :class:`ModelSection`, :class:`ObserverSection`,
 :class:`FeedbackSection`, :class:`PlantSection`, :class:`DiagnosticsSection`,
-:class:`TopicsSection` (and :class:`ControllerSection`, :class:`LifecycleSection`), together
-:class:`Sections`. Code reads these attributes (``sections.plant.samples``), never a
-parameter name.
+:class:`~observer_ros.config.topic_sections.TopicsSection` (and :class:`ControllerSection`,
+:class:`LifecycleSection`), together :class:`Sections`. Code reads these attributes
+(``sections.plant.samples``), never a parameter name.
 
-Each field is bound to its parameter once, with :func:`bound`: the field's name is the
-argument the core knows the value by (``ModelSection.A``, ``IntegralSection.poles``), the
-binding names the parameter a user sets (``model.A``, ``feedback.integral_poles``). An
-observer type's arguments are bound in the schema
+Each field is bound to its parameter once, with :func:`~observer_ros.config.binding.bound`:
+the field's name is the argument the core knows the value by (``ModelSection.A``,
+``IntegralSection.poles``), the binding names the parameter a user sets (``model.A``,
+``feedback.integral_poles``). An observer type's arguments are bound in the schema
 (:data:`~observer_ros.config.schema.OBSERVER_ARGUMENTS`) and read into
 :attr:`ObserverSection.arguments` by their own names.
 
-A section's :meth:`Section.binding` turns those bindings into a :class:`Binding`, through
-which the errors of a core call are charged to the parameter their argument stands for
-(``poles: expected 2 poles`` becomes ``observer.poles: expected 2 poles``): the error
-carries its argument and its reason, the binding the parameter; no text is parsed.
+A section's :meth:`~observer_ros.config.binding.Section.binding` turns those bindings into a
+:class:`~observer_ros.config.binding.Binding`, through which the errors of a core call are
+charged to the parameter their argument stands for (``poles: expected 2 poles`` becomes
+``observer.poles: expected 2 poles``): the error carries its argument and its reason, the
+binding the parameter; no text is parsed.
 """
 
-from contextlib import contextmanager
-from dataclasses import dataclass, field, fields
-import difflib
-from typing import Any, Iterable, Iterator, Mapping
+from dataclasses import dataclass, field
+from typing import Any, Mapping
 
 import numpy as np
 
-from observer_ros.config.schema import (
-    OBSERVER_ARGUMENTS, PARAMETER_SPECS, PARAMETERS, ROS_PARAMETERS, source_parameter,
-    SOURCE_SETTINGS, source_specs, topic_parameter, TOPIC_ROLES, TOPIC_SETTINGS)
-from observer_ros.core.errors import ConfigError, DesignError
-from observer_ros.wire import find
-
-#: Field metadata: the parameter a field is bound to, or the section a field holds.
-PARAMETER, SECTION = 'parameter', 'section'
-
-#: What numpy and scipy raise when a design's arithmetic breaks down (overflow, no
-#: convergence); a design that raises one is refused like any other failed design.
-NUMERIC_FAILURES = (np.linalg.LinAlgError, ValueError, ArithmeticError)
-
-
-#: The prefix of the measurement sources' parameters (``sources.<name>.<setting>``).
-SOURCES_PREFIX = 'sources.'
-
-
-def source_names(names: list) -> tuple:
-    """
-    Check the names of ``observer.sources``: unique, each a ROS parameter name token.
-
-    Raises
-    ------
-    ConfigError
-        ``observer.sources``, saying which name and why.
-
-    """
-    for name in names:
-        if not name or not name.replace('_', 'a').isalnum() or not name[0].isalpha():
-            raise ConfigError('observer.sources', f'expected names of letters, digits and '
-                              f'underscores, starting with a letter, got {name!r}')
-    repeated = sorted({name for name in names if names.count(name) > 1})
-    if repeated:
-        raise ConfigError('observer.sources', f'names {repeated} are given twice; expected '
-                          f'each source once')
-    return tuple(names)
-
-
-def unknown_source(parameter: str, sources: tuple) -> str:
-    """Say why ``parameter`` (``sources.<name>.<setting>``) is none of the sources'."""
-    name, _, setting = parameter[len(SOURCES_PREFIX):].partition('.')
-    if name in sources:
-        return (f'unknown setting {setting!r} of the measurement source {name!r}; expected '
-                f'one of {", ".join(SOURCE_SETTINGS)}')
-    return (f'{name!r} is no measurement source: observer.sources names '
-            f'{list(sources) or "none"}; add it there, or remove its parameters')
-
-
-def complete_parameters(params: Mapping[str, Any], strict: bool = False) -> dict:
-    """
-    Fill defaults and check every parameter of the schema once: its type and range.
-
-    The one place a given value is coerced (by its
-    :class:`~observer_ros.config.schema.ParameterSpec`), in schema order. Unknown names are
-    kept untouched unless ``strict`` is set, in which case any name outside the schema
-    (other than ROS's own ``use_sim_time`` and ``qos_overrides.*``) is an error, so that a
-    typo is not silently ignored.
-
-    Raises
-    ------
-    ConfigError
-        Naming the parameter.
-
-    """
-    complete = {}
-    for spec in PARAMETERS:
-        complete[spec.name] = spec.coerce(params.get(spec.name, spec.default))
-    sources = source_names(complete['observer.sources'])
-    for name in sources:
-        for spec in source_specs(name):
-            complete[spec.name] = spec.coerce(params.get(spec.name, spec.default))
-    for name, value in params.items():
-        if name in PARAMETER_SPECS or name in complete:
-            continue
-        if name.startswith(SOURCES_PREFIX):
-            raise ConfigError(name, unknown_source(name, sources))
-        if strict and not (name in ROS_PARAMETERS or name.startswith('qos_overrides.')):
-            raise ConfigError(name, unknown_parameter(name, PARAMETER_SPECS))
-        complete[name] = value
-    return complete
-
-
-#: The page that lists every parameter (generated from the schema).
-PARAMETERS_PAGE = 'doc/parameters.md'
-
-#: difflib similarity from which a parameter name is offered for a misspelt one, and how far
-#: below the best match the others offered may be.
-CLOSE_NAME, CLOSE_SPREAD = 0.75, 0.05
-
-
-def unknown_parameter(name: str, known: Iterable[str]) -> str:
-    """
-    Say that ``name`` is no parameter: the nearest of the ``known`` names and the page.
-
-    Examples
-    --------
-    >>> unknown_parameter('observer.polse', ['observer.poles', 'feedback.poles'])
-    "unknown parameter; did you mean 'observer.poles'? (every parameter: doc/parameters.md)"
-
-    """
-    names = sorted(known)
-    close = [match for match in names if match.lower() == name.lower()]
-    if not close:
-        scored = sorted(((difflib.SequenceMatcher(None, name, match).ratio(), match)
-                         for match in names), reverse=True)
-        best = scored[0][0] if scored else 0.0
-        close = [match for ratio, match in scored[:3]
-                 if ratio >= CLOSE_NAME and ratio >= best - CLOSE_SPREAD]
-    guess = (f'; did you mean {" or ".join(repr(match) for match in close)}?' if close
-             else '')
-    return f'unknown parameter{guess} (every parameter: {PARAMETERS_PAGE})'
-
-
-class ReadOnlyMapping(Mapping):
-    """
-    A read-only mapping of a copy of the one given.
-
-    The one base of :class:`Binding` and :class:`SettingsByName`, which differ only in
-    what they add.
-    """
-
-    def __init__(self, items: Mapping[str, Any]) -> None:
-        self._items = dict(items)
-
-    def __getitem__(self, key: str) -> Any:
-        return self._items[key]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._items)
-
-    def __len__(self) -> int:
-        return len(self._items)
-
-
-class Binding(ReadOnlyMapping):
-    """
-    Which parameter each argument of a core call stands for: ``{argument: parameter}``.
-
-    Made from the sections whose values a call takes (``ModelSection.binding() |
-    ObserverSection.binding()``); a later section's argument of the same name wins.
-
-    Examples
-    --------
-    >>> from observer_ros.core.errors import ConfigError
-    >>> binding = ModelSection.binding()
-    >>> binding['A']
-    'model.A'
-    >>> str(binding.error(ConfigError('B', 'expected 2x1'), 'model.A'))
-    'model.B: expected 2x1'
-
-    """
-
-    def __or__(self, other: Mapping[str, str]) -> 'Binding':
-        return Binding({**self._items, **other})
-
-    def error(self, error: Exception, fallback: str) -> ConfigError:
-        """
-        Return a core error as a ConfigError naming the parameter its argument is bound to.
-
-        An error about no bound argument (an unobservable pair names none) is charged to
-        ``fallback``: the parameter whose value led to it. An error that names one of the
-        bound parameters already keeps it, and so does one naming a measurement source's
-        setting (``sources.<name>.outputs``, as the core's source check names it).
-        """
-        argument = getattr(error, 'parameter', '') or ''
-        reason = getattr(error, 'reason', None) or str(error)
-        if argument in self._items.values() or argument.startswith(SOURCES_PREFIX):
-            return ConfigError(argument, reason)
-        return ConfigError(self._items.get(argument) or fallback, reason)
-
-    @contextmanager
-    def charged(self, fallback: str, numeric: bool = False) -> Iterator[None]:
-        """
-        Re-raise the core's ConfigError and DesignError under their parameters.
-
-        With ``numeric``, a numeric failure (:data:`NUMERIC_FAILURES`) of the call is
-        refused too, charged to ``fallback``.
-        """
-        try:
-            yield
-        except (ConfigError, DesignError) as e:
-            raise self.error(e, fallback) from e
-        except NUMERIC_FAILURES as e:
-            if not numeric:
-                raise
-            raise ConfigError(fallback, f'the design failed numerically ({e})') from e
-
-
-def bound(parameter: str) -> Any:
-    """
-    Return a section field bound to ``parameter`` of the schema.
-
-    Raises
-    ------
-    KeyError
-        ``parameter`` is not in the schema (when the section is defined).
-
-    """
-    return field(metadata={PARAMETER: PARAMETER_SPECS[parameter].name})
-
-
-def nested(section: type) -> Any:
-    """Return a section field that holds another section (read from the same parameters)."""
-    return field(metadata={SECTION: section})
-
-
-@dataclass(frozen=True)
-class Section:
-    """
-    Base of the typed sections: fields bound to parameters (:func:`bound`) or sections.
-
-    A section whose values are not one parameter each (an observer type's arguments)
-    overrides :meth:`values`, :meth:`bindings` and :meth:`parameter_names`; one that is no
-    dataclass of fields (the topics, by topic) offers :meth:`read` and
-    :meth:`parameter_names` itself (:class:`TopicsSection`).
-    """
-
-    @classmethod
-    def bindings(cls) -> dict:
-        """Return ``{field name: parameter}`` of the fields bound to parameters."""
-        return {item.name: item.metadata[PARAMETER] for item in fields(cls)
-                if PARAMETER in item.metadata}
-
-    @classmethod
-    def binding(cls) -> Binding:
-        """Return the :class:`Binding` of the section's own fields."""
-        return Binding(cls.bindings())
-
-    @classmethod
-    def parameter_names(cls) -> tuple:
-        """Return every parameter the section (with its nested sections) reads."""
-        names = []
-        for item in fields(cls):
-            if PARAMETER in item.metadata:
-                names.append(item.metadata[PARAMETER])
-            elif SECTION in item.metadata:
-                names.extend(item.metadata[SECTION].parameter_names())
-        return tuple(names)
-
-    @classmethod
-    def read(cls, checked: Mapping[str, Any]) -> 'Section':
-        """Return the section of a checked parameter mapping (:func:`complete_parameters`)."""
-        return cls(**cls.values(checked))
-
-    @classmethod
-    def values(cls, checked: Mapping[str, Any]) -> dict:
-        """Return the section's field values from a checked parameter mapping."""
-        values = {}
-        for item in fields(cls):
-            if PARAMETER in item.metadata:
-                values[item.name] = checked[item.metadata[PARAMETER]]
-            elif SECTION in item.metadata:
-                values[item.name] = item.metadata[SECTION].read(checked)
-        return values
+from observer_ros.config.binding import bound, nested, Section
+from observer_ros.config.parameter_check import complete_parameters, converted_parameters
+from observer_ros.config.schema import OBSERVER_ARGUMENTS
+from observer_ros.config.topic_sections import SourcesSection, TopicsSection
 
 
 @dataclass(frozen=True)
@@ -466,132 +215,6 @@ class DiagnosticsSection(Section):
 
 
 @dataclass(frozen=True)
-class TopicSettings:
-    """
-    ``topics.<topic>.*`` of one vector topic.
-
-    Attributes
-    ----------
-    type : str
-        ``joint_state`` or ``float64_multi_array``.
-    field : str
-        The JointState field holding the values.
-    limit : float
-        The largest magnitude a value may have.
-    fields : tuple of str
-        ``topics.u.fields``: the values read by field path (empty: the vector of ``type``
-        and ``field``; other topics have none).
-
-    """
-
-    type: str  # noqa: A003 (the parameter's name)
-    field: str
-    limit: float
-    fields: tuple = ()
-
-    @property
-    def stamped(self) -> bool:
-        """Whether the messages carry a header stamp (a JointState does): the catalog says."""
-        entry = find(self.type)
-        return entry is not None and entry.stamped
-
-
-class SettingsByName(ReadOnlyMapping):
-    """A section kept by name (a topic, a source): a read-only mapping of its settings."""
-
-
-class TopicsSection(SettingsByName):
-    """
-    ``topics.*``: :class:`TopicSettings` by topic (``topics['y'].limit``), every vector topic.
-
-    Its parameters are :func:`~observer_ros.config.schema.topic_parameter` of each topic of
-    :data:`~observer_ros.config.schema.TOPIC_ROLES` and each setting.
-    """
-
-    @classmethod
-    def parameter_names(cls) -> tuple:
-        """Return every ``topics.<topic>.<setting>`` parameter."""
-        return tuple(topic_parameter(topic, setting) for topic, _, _ in TOPIC_ROLES
-                     for setting in TOPIC_SETTINGS) + (INPUT_FIELDS,)
-
-    @classmethod
-    def read(cls, checked: Mapping[str, Any]) -> 'TopicsSection':
-        """Return the settings of every vector topic."""
-        return cls({topic: TopicSettings(**{
-            setting: checked[topic_parameter(topic, setting)] for setting in TOPIC_SETTINGS},
-            fields=tuple(checked[INPUT_FIELDS]) if topic == 'u' else ())
-            for topic, _, _ in TOPIC_ROLES})
-
-
-#: ``topics.u.fields``: the inputs read by field path.
-INPUT_FIELDS = topic_parameter('u', 'fields')
-
-
-@dataclass(frozen=True)
-class SourceSettings:
-    """
-    ``sources.<name>.*`` of one measurement source, checked one by one.
-
-    Attributes
-    ----------
-    name : str
-    topic : str
-        Its topic (the name when ``sources.<name>.topic`` is empty).
-    type : str
-        A short name of :data:`~observer_ros.config.schema.FIELD_MESSAGE_TYPES`.
-    fields, outputs : tuple of str
-        The field paths and the outputs they carry, in the same order.
-    measurement_noise : tuple of float
-    latency, timeout : float
-        Seconds.
-    predict_only : bool
-
-    """
-
-    name: str
-    topic: str
-    type: str  # noqa: A003 (the parameter's name)
-    fields: tuple
-    outputs: tuple
-    measurement_noise: tuple
-    latency: float
-    timeout: float
-    predict_only: bool
-
-    def parameter(self, setting: str) -> str:
-        """Return the parameter of one of its settings: ``sources.imu.fields``."""
-        return source_parameter(self.name, setting)
-
-
-class SourcesSection(SettingsByName):
-    """
-    ``sources.<name>.*``: :class:`SourceSettings` by name, in ``observer.sources`` order.
-
-    Empty without ``observer.sources`` (one source, ``topics.y``). Its parameters are made
-    for each name (:func:`~observer_ros.config.schema.source_specs`), so the section binds
-    none of the schema's own.
-    """
-
-    @classmethod
-    def parameter_names(cls) -> tuple:
-        """None of the schema's: a source's parameters are made for its name."""
-        return ()
-
-    @classmethod
-    def read(cls, checked: Mapping[str, Any]) -> 'SourcesSection':
-        """Return the settings of every source named in ``observer.sources``."""
-        sources = {}
-        for name in checked['observer.sources']:
-            values = {setting: checked[source_parameter(name, setting)]
-                      for setting in SOURCE_SETTINGS}
-            for setting in ('fields', 'outputs', 'measurement_noise'):
-                values[setting] = tuple(values[setting])
-            values['topic'] = values['topic'] or name
-            sources[name] = SourceSettings(name, **values)
-        return cls(sources)
-
-
-@dataclass(frozen=True)
 class Sections(Section):
     """
     Every section of a checked parameter set, in schema order.
@@ -619,33 +242,15 @@ class Sections(Section):
     @classmethod
     def check(cls, params: Mapping[str, Any], strict: bool = False) -> 'Sections':
         """
-        Check ``params`` once (:func:`complete_parameters`) and read every section.
+        Check ``params`` once and read every section.
 
-        Every parameter whose spec has a ``parse`` is converted once into the type its
-        user takes (:func:`converted_parameters`: ``observer.poles``, ``feedback.poles``
-        and ``feedback.integral_poles`` complex arrays, from the numbers or texts given),
-        and the sections hold that value; :attr:`parameters` keeps the checked form.
+        Checked by :func:`~observer_ros.config.parameter_check.complete_parameters`; every
+        parameter whose spec has a ``parse`` is converted once into the type its user takes
+        (:func:`~observer_ros.config.parameter_check.converted_parameters`:
+        ``observer.poles``, ``feedback.poles`` and ``feedback.integral_poles`` complex
+        arrays, from the numbers or texts given), and the sections hold that value;
+        :attr:`parameters` keeps the checked form.
         """
         checked = complete_parameters(params, strict)
         values = cls.values({**checked, **converted_parameters(params)})
         return cls(**values, parameters=checked)
-
-
-def converted_parameters(params: Mapping[str, Any]) -> dict:
-    """
-    Return each parameter of the schema that has a ``parse``, converted into its final type.
-
-    Converted once from the value as given in ``params``
-    (:meth:`~observer_ros.core.arguments.Argument.convert`: numbers stay numbers on the
-    way, texts are parsed; a pole list becomes a complex array, empty when none is given).
-    The checked mapping (:func:`complete_parameters`) keeps the parameter's own form
-    (texts), for a parameter file written back.
-
-    Raises
-    ------
-    ConfigError
-        Naming the parameter (``feedback.poles: cannot read 'x' as a pole``).
-
-    """
-    return {spec.name: spec.convert(params.get(spec.name, spec.default))
-            for spec in PARAMETERS if spec.parse is not None}

@@ -34,9 +34,11 @@ from typing import Optional
 
 import numpy as np
 
+from observer_ros.config.binding import Binding
 from observer_ros.config.schema import FIELD_MESSAGE_TYPES
-from observer_ros.config.sections import Binding, Sections, SourceSettings
+from observer_ros.config.sections import Sections
 from observer_ros.config.timing import sample_rate
+from observer_ros.config.topic_sections import SourceSettings
 from observer_ros.config.values import indices
 from observer_ros.core.arguments import number_text
 from observer_ros.core.errors import ConfigError

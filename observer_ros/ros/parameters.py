@@ -32,8 +32,8 @@ from rclpy.subscription import Subscription
 
 from observer_ros.config import (
     Configuration, node_parameters, PARAMETER_SPECS, ParameterSpec, validate_parameters)
+from observer_ros.config.parameter_check import source_names, SOURCES_PREFIX, unknown_parameter
 from observer_ros.config.schema import source_specs
-from observer_ros.config.sections import source_names, SOURCES_PREFIX, unknown_parameter
 from observer_ros.core.arguments import (
     BOOL, DOUBLE, DOUBLE_ARRAY, INTEGER, STRING, STRING_ARRAY)
 from observer_ros.core.errors import ConfigError, DesignError
