@@ -40,6 +40,7 @@ from typing import Iterator, Optional
 
 import numpy as np
 
+from observer_ros.config.message_noise import attach_message_noise
 from observer_ros.config.model import Augmentation
 from observer_ros.config.sections import (
     Binding, JointStatesSection, ModelSection, ObserverSection, Sections)
@@ -350,6 +351,7 @@ class ObserverSetup:
 
         """
         estimator = self.make_estimator()
+        attach_message_noise(estimator, self.sources, self.history_ns)  # noise: message
         binding = self.binding | SOURCE_ARGUMENTS
         with binding.charged('observer.sources'):
             return EventStream(estimator, self.max_gap_ns, input_stamped=self.input_stamped,

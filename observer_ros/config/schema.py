@@ -450,7 +450,7 @@ def _topic_parameters(topic: str, names: str, nodes: tuple) -> tuple:
 
 #: The settings of every measurement source: ``sources.<name>.<setting>``.
 SOURCE_SETTINGS = ('topic', 'type', 'fields', 'outputs', 'measurement_noise', 'latency',
-                   'timeout', 'predict_only')
+                   'timeout', 'predict_only', 'noise')
 
 #: Placeholder of the source name in the parameter table.
 SOURCE_NAME = '<name>'
@@ -497,6 +497,12 @@ def source_specs(name: str) -> tuple:
               'correct the estimate (an unobservable subset for a steady-state Kalman filter '
               'or a full-order observer), its samples alone only move the estimate forward '
               'instead of the configuration being refused.', _OBS),
+        _spec(named('noise'), STRING, 'configured', 'configured: R as configured; message: '
+              "the block of R of each sample from its message's covariance (imu, odometry, "
+              'pose_with_covariance_stamped, twist_with_covariance_stamped; the time-varying '
+              'and nonlinear Kalman filters); an unknown (-1), non-finite or not positive '
+              'definite covariance: the configured block, counted.', _OBS,
+              choices=('configured', 'message')),
     )
 
 

@@ -34,6 +34,7 @@ from typing import Optional
 
 import numpy as np
 
+from observer_ros.config.message_noise import covariance_reader
 from observer_ros.config.schema import FIELD_MESSAGE_TYPES
 from observer_ros.config.sections import Sections, SourceSettings
 from observer_ros.config.timing import sample_rate
@@ -89,6 +90,8 @@ def _source(settings: SourceSettings, model: StateSpaceModel) -> MeasurementSour
     carried = indices(outputs, settings.outputs, model.output_names, 'output')
     if len(set(carried)) != len(carried):
         raise ConfigError(outputs, f'an output is named twice in {list(settings.outputs)}')
+    if settings.noise == 'message':  # the type and each field must have a covariance
+        covariance_reader(settings.parameter('noise'), msgtype, settings.fields)
     return MeasurementSource(settings.name, carried, seconds_to_ns(settings.latency),
                              seconds_to_ns(settings.timeout), settings.predict_only)
 
