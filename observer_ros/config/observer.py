@@ -42,6 +42,7 @@ import numpy as np
 
 from observer_ros.config.message_noise import attach_message_noise
 from observer_ros.config.model import Augmentation
+from observer_ros.config.odometry import odometry_output, OdometryOutput
 from observer_ros.config.sections import (
     Binding, JointStatesSection, ModelSection, ObserverSection, Sections)
 from observer_ros.config.sources import measurement_sources, SourcesSetup
@@ -162,6 +163,7 @@ def observer_design(sections: Sections, augmentation: Augmentation) -> Optional[
         raise ConfigError(parameter, f'the {kind.name} observer cannot keep angles (its type '
                           f'has no capability angles); expected none, or another observer.type')
     joint_states = joint_state_selection(section.joint_states, model)
+    odometry = odometry_output(section.odometry, model.state_names)  # outputs.odometry.*
     if design is None:
         return None
     limits = ValueLimits(measurement=topics['y'].limit, input=topics['u'].limit,
@@ -176,7 +178,7 @@ def observer_design(sections: Sections, augmentation: Augmentation) -> Optional[
         publish_rate=section.publish_rate, limits=limits, input_stamped=topics['u'].stamped,
         joint_states=joint_states, binding=binding, design_source=design_source,
         sources=sources, history_ns=history_ns, angles=angles,
-        unstamped_input=section.unstamped_input)
+        unstamped_input=section.unstamped_input, odometry=odometry)
 
 
 @contextmanager
@@ -287,6 +289,7 @@ class ObserverSetup:
     history_ns: int = 0
     angles: Angles = Angles()
     unstamped_input: str = 'arrival'
+    odometry: Optional[OdometryOutput] = None
     _built: list = dataclass_field(default_factory=list, compare=False, repr=False)
 
     @property
