@@ -25,8 +25,11 @@ import math
 
 import numpy as np
 import pytest
+from rosbags.rosbag2 import Writer
 from scipy.linalg import expm
 
+from bag_support import STORAGES, TYPESTORE
+from observer_ros.bags.replay import replay_bag
 from observer_ros.config import validate_parameters
 from observer_ros.config.message_noise import attach_message_noise
 from observer_ros.core.errors import ConfigError
@@ -288,3 +291,23 @@ def test_a_constant_gain_type_is_refused_by_name():
             **{**sources.settings[0].__dict__, 'noise': 'message'})
         attach_message_noise(Constant(), sources.__class__(
             sources.sources, (settings,) + sources.settings[1:], sources.msgtypes), 0)
+
+
+@pytest.mark.parametrize('storage', sorted(STORAGES))
+def test_replay_takes_the_noise_of_each_recorded_message_as_the_node_does(tmp_path, storage):
+    feed = samples(40)
+    late = list(feed)
+    late.insert(30, late.pop(24))  # a pose logged after three newer samples
+    fields = {'pose': (POSE, 'pose.pose.position.x'), 'twist': (TWIST, 'twist.twist.linear.x')}
+    with Writer(tmp_path / 'bag', version=9, storage_plugin=STORAGES[storage]) as writer:
+        connections = {name: writer.add_connection(f'/{name}', msgtype, typestore=TYPESTORE)
+                       for name, (msgtype, _) in fields.items()}
+        for k, (name, stamp, value, variance) in enumerate(late):
+            writer.write(connections[name], START_NS + k * PERIOD_NS // 2,
+                         message(*fields[name], value, variance, stamp))
+    system = validate_parameters(CART)
+    result = replay_bag(tmp_path / 'bag', system)
+    _, live = run_node_path(system, late)
+    assert result.stamps_ns.tolist() == [stamp for stamp, _, _ in live]
+    assert result.estimates.tolist() == [x.tolist() for _, x, _ in live]
+    assert result.covariances.tolist() == [p.tolist() for _, _, p in live]

@@ -64,6 +64,9 @@ WARNED_EVENTS = ('time_base',)
 #: Messages of a topic read before a stream none of which holds its fields is refused.
 PROBE_MESSAGES = 20
 
+#: A replay reads every message's covariance before it runs: its blocks are all kept.
+NO_PRUNING = 1 << 62
+
 
 def topic_request(system: Configuration, key: str, topic: Optional[str] = None) -> TopicRequest:
     """Return what to read for the topic playing role ``key`` (``y``, ``u``, ``x_true`` ...)."""
@@ -504,7 +507,8 @@ class _FieldCheck:
 
 
 def recorded_events(bag, system: Configuration, u_topic: str = 'u',
-                    use_log_time: bool = False, y_topic: str = 'y') -> tuple:
+                    use_log_time: bool = False, y_topic: str = 'y',
+                    on_message=None) -> tuple:
     """
     Read the measurement sources' and the inputs' messages of a bag, in bag order.
 
@@ -513,7 +517,8 @@ def recorded_events(bag, system: Configuration, u_topic: str = 'u',
     ``topics.y`` says), its header stamp where the type has one and it is not zero, else
     its log time (the node, under ``play_bag``, stamps it with ``/clock``, which is that
     log time); the log time is its arrival. Sources that share a topic each read every
-    message of it, in the order of ``observer.sources``.
+    message of it, in the order of ``observer.sources``. ``on_message(source, stamp_ns,
+    raw)``, when given, sees each message read (``sources.<name>.noise: message``).
 
     Returns
     -------
@@ -559,6 +564,8 @@ def recorded_events(bag, system: Configuration, u_topic: str = 'u',
                     counts[name]['malformed'] += 1
                     continue
                 stamp = log_time if use_log_time or not stamp else stamp
+                if on_message is not None:
+                    on_message(name, stamp, raw)
                 events.append(RecordedEvent(name, stamp, np.array(values, dtype=float),
                                             log_time))
         check.finish()
@@ -570,8 +577,12 @@ def recorded_events(bag, system: Configuration, u_topic: str = 'u',
 def _replay_sources(bag, system: Configuration, y_topic: str, u_topic: str,
                     use_log_time: bool) -> 'ReplayResult':
     """:func:`replay_bag` message by message: measurement sources, or inputs by field."""
-    events, counts = recorded_events(bag, system, u_topic, use_log_time, y_topic)
     stream = system.observer.make_stream()
+    noise = getattr(stream.estimator, 'message_noise', None)  # noise: message, every block
+    if noise is not None:
+        noise.keep_ns = NO_PRUNING
+    events, counts = recorded_events(bag, system, u_topic, use_log_time, y_topic,
+                                     None if noise is None else noise.take)
     if use_log_time:
         stream.input_stamped = False
     if system.observer.unstamped_input == 'next_measurement' and not stream.input_stamped:

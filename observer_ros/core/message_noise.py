@@ -94,6 +94,12 @@ class SampleNoise:
         if len(stamps) > 2 * len(self._by_stamp) + 16:  # stamps out of order, pruned above
             self._stamps = deque(stamp for stamp in stamps if stamp in self._by_stamp)
 
+    def take(self, source: str, stamp_ns: int, message) -> None:
+        """Hand a message of ``source`` to its reader, which puts its block (none: no-op)."""
+        reader = self.readers.get(source)
+        if reader is not None:
+            reader.take(stamp_ns, message)
+
     def has(self, stamp_ns: int) -> bool:
         """Whether a sample at ``stamp_ns`` brought a block."""
         return stamp_ns in self._by_stamp

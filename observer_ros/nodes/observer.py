@@ -250,8 +250,8 @@ class ObserverWiring:
         stamp, y = self._decode(name, message, codec)
         if y is not None:
             noise = getattr(self.stream.estimator, 'message_noise', None)  # noise: message
-            if noise is not None and name in noise.readers:
-                noise.readers[name].take(stamp, message)
+            if noise is not None:
+                noise.take(name, stamp, message)
             self._run(self.stream.add_measurement, stamp, y, self._clock_for(stamp),
                       time.monotonic_ns(), name)
 
