@@ -159,6 +159,7 @@ def test_a_constant_message_covariance_equals_that_r_configured_bit_for_bit():
 @pytest.mark.parametrize('variance, element0, reason', [
     (-1.0, None, 'fallback_unknown'),
     (float('nan'), None, 'fallback_nonfinite'),
+    (8.98846567431158e+307, None, 'fallback_out_of_range'),  # found by the fuzz campaign
     (0.0, None, 'fallback_not_positive_definite'),
     (-0.5, None, 'fallback_not_positive_definite'),
 ])

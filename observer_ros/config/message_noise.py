@@ -20,8 +20,9 @@ Sources whose measurement noise comes from their messages: ``sources.<name>.nois
 such source; the node (and the bag replay) hands it each message of the source before the
 measurement (:meth:`MessageNoise.take`), so the update at that stamp uses the block of
 ``R`` the message gives (:class:`~observer_ros.wire.covariance.CovarianceReader`). A block
-that cannot be used (``unknown``: element 0 is -1; ``nonfinite``; ``not_positive_definite``)
-is counted by its reason and the sample is taken with the configured block of ``R``
+that cannot be used (``unknown``: element 0 is -1; ``nonfinite``; ``out_of_range``;
+``not_positive_definite``) is counted by its reason and the sample is taken with the
+configured block of ``R``
 (``sources.<name>.measurement_noise`` or ``observer.measurement_noise``): the measurement
 is never lost for its covariance.
 """

@@ -26,6 +26,8 @@ source reads (``twist.twist.linear.x``, ``pose.pose.orientation.yaw``) and gives
 - ``unknown``: element 0 of a covariance read is -1 (the ROS convention for "no estimate",
   ``sensor_msgs/Imu``);
 - ``nonfinite``: a NaN or infinite entry;
+- ``out_of_range``: an entry larger in magnitude than :data:`COVARIANCE_LIMIT` (the
+  topics' limit of covariances: a variance of 1e308 overflows the filter's sums);
 - ``not_positive_definite``: not symmetric (beyond rounding) or not positive definite (a
   zero variance, which many drivers leave, says nothing of the sample's quality).
 
@@ -69,7 +71,10 @@ COVARIANCES['geometry_msgs/msg/TwistWithCovarianceStamped'] = _six(
     'twist.twist', _TWIST, 'twist.covariance')
 
 #: The reasons a message's block is not used, in the order they are checked.
-REASONS = ('unknown', 'nonfinite', 'not_positive_definite')
+REASONS = ('unknown', 'nonfinite', 'out_of_range', 'not_positive_definite')
+
+#: The largest magnitude an entry of a message's covariance may have (1e9 squared).
+COVARIANCE_LIMIT = 1e18
 
 #: An asymmetry above this times the largest entry makes a block not symmetric.
 SYMMETRY_TOLERANCE = 1e-9
@@ -166,6 +171,8 @@ class CovarianceReader:
         block = np.zeros((self.size, self.size))
         block[self._rows, self._columns] = np.asarray(values, dtype=float)[self._take]
         largest = float(np.abs(block).max())
+        if largest > COVARIANCE_LIMIT:
+            return None, 'out_of_range'
         if float(np.abs(block - block.T).max()) > SYMMETRY_TOLERANCE * largest:
             return None, 'not_positive_definite'
         block = 0.5 * (block + block.T)
@@ -192,5 +199,6 @@ class CovarianceReader:
         return values
 
 
-__all__ = ['COVARIANCES', 'CovarianceReader', 'REASONS', 'SYMMETRY_TOLERANCE', 'UNKNOWN',
+__all__ = ['COVARIANCE_LIMIT', 'COVARIANCES', 'CovarianceReader', 'REASONS',
+           'SYMMETRY_TOLERANCE', 'UNKNOWN',
            'covariance_types']
