@@ -73,15 +73,16 @@ class SampleNoise:
         Keep ``block`` (``(k, k)``, in the order of ``outputs``) for the sample at ``stamp_ns``.
 
         ``stamp_ns`` is the stamp the filter takes the sample at (its stamp less the source's
-        latency). A second block of the same outputs at one stamp is ignored, as the event
-        engine drops the second sample (a repeated stamp).
+        latency). The array is kept as given (not copied): give one nobody changes. A second
+        block of the same outputs at one stamp is ignored, as the event engine drops the
+        second sample (a repeated stamp).
         """
         stamp_ns = int(stamp_ns)
         parts = self._by_stamp.get(stamp_ns)
         if parts is None:
             parts = self._by_stamp[stamp_ns] = {}
             self._stamps.append(stamp_ns)
-        parts.setdefault(tuple(outputs), np.array(block, dtype=float))
+        parts.setdefault(tuple(outputs), np.asarray(block, dtype=float))
         if self._newest is None or stamp_ns > self._newest:
             self._newest = stamp_ns
         self._prune()
@@ -124,6 +125,10 @@ class SampleNoise:
         parts = self._by_stamp.get(stamp_ns)
         if not parts:
             return configured
+        if len(parts) == 1:  # the common case: the update is the one source's sample
+            ((carried, block),) = parts.items()
+            if carried == outputs:
+                return block
         position = {output: k for k, output in enumerate(outputs)}
         noise = None
         for carried, block in parts.items():

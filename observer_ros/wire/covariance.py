@@ -157,6 +157,7 @@ class CovarianceReader:
         self._columns = np.array([j for _, j, _ in entries], dtype=int)
         self._take = np.array([k for _, _, k in entries], dtype=int)
         self.size = len(self.fields)
+        self._one = int(self._take[0])  # where the variance of a single field is read
 
     def check(self, values: Sequence[float]) -> tuple:
         """
@@ -168,6 +169,13 @@ class CovarianceReader:
             return None, 'unknown'
         if not all(map(math.isfinite, values)):
             return None, 'nonfinite'
+        if self.size == 1:  # one field, a variance: the same rules without the matrices
+            variance = float(values[self._one])
+            if abs(variance) > COVARIANCE_LIMIT:
+                return None, 'out_of_range'
+            if not variance > 0.0:
+                return None, 'not_positive_definite'
+            return np.array([[variance]]), None
         block = np.zeros((self.size, self.size))
         block[self._rows, self._columns] = np.asarray(values, dtype=float)[self._take]
         largest = float(np.abs(block).max())
