@@ -46,7 +46,7 @@ class SampleNoise:
     Examples
     --------
     >>> import numpy as np
-    >>> noise = SampleNoise(keep_ns=1_000_000_000)
+    >>> noise = SampleNoise(keep_ns=100)
     >>> noise.put(5, (1,), np.array([[0.04]]))
     >>> noise.block(5, (0, 1), np.diag([1.0, 2.0])).tolist()
     [[1.0, 0.0], [0.0, 0.04]]
