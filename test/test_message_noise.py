@@ -312,3 +312,17 @@ def test_replay_takes_the_noise_of_each_recorded_message_as_the_node_does(tmp_pa
     assert result.stamps_ns.tolist() == [stamp for stamp, _, _ in live]
     assert result.estimates.tolist() == [x.tolist() for _, x, _ in live]
     assert result.covariances.tolist() == [p.tolist() for _, _, p in live]
+
+
+def test_the_blocks_are_kept_for_the_history_and_start_again_after_a_jump_back():
+    noise = SampleNoise(keep_ns=100)
+    for stamp in range(0, 1000, 10):
+        noise.put(stamp, (0,), np.array([[stamp + 1.0]]))
+    assert len(noise) == 11 and noise.has(890) and not noise.has(880)
+    assert noise.block(900, (0,), np.eye(1)).tolist() == [[901.0]]
+    noise.put(5, (0,), np.array([[0.5]]))  # a looping bag starts again
+    assert len(noise) == 1 and noise.block(5, (0,), np.eye(1)).tolist() == [[0.5]]
+    noise.put(950, (0,), np.array([[2.0]]))
+    noise.put(905, (0,), np.array([[3.0]]))  # late, within the window
+    noise.put(905, (0,), np.array([[4.0]]))  # repeated: the first kept, as the engine does
+    assert noise.block(905, (0, 1), np.diag([7.0, 8.0])).tolist() == [[3.0, 0.0], [0.0, 8.0]]

@@ -78,6 +78,8 @@ class SampleNoise:
         second sample (a repeated stamp).
         """
         stamp_ns = int(stamp_ns)
+        if self._newest is not None and stamp_ns < self._newest - self.keep_ns:
+            self.clear()  # a jump back in time (a looping bag, a clock reset): start again
         parts = self._by_stamp.get(stamp_ns)
         if parts is None:
             parts = self._by_stamp[stamp_ns] = {}
