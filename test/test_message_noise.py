@@ -138,6 +138,14 @@ def test_the_covariance_of_each_message_reaches_r_and_equals_the_filter_by_hand(
         np.testing.assert_allclose(x, x_ref, rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(p, p_ref, rtol=1e-9, atol=1e-12)
     assert stream.estimator.message_noise.readers['pose'].counters == {'used': 60}
+    # The decoded variance is the R of the pose's update at its stamp (the twist's stays).
+    noise = stream.estimator.message_noise
+    for name, stamp, _, variance in feed[-10:]:
+        configured = np.diag([0.25, 0.09])
+        if name == 'pose':
+            assert noise.block(stamp, (0,), configured[:1, :1]).tolist() == [[variance]]
+        else:
+            assert not noise.has(stamp)
     # Without the messages' noise the configured 0.25 serves, and the estimates differ.
     _, configured = run_node_path(system, feed, give_noise=False)
     for (_, x, _), (_, x_ref, _) in zip(configured, reference(feed, use_message=False)):
