@@ -199,7 +199,7 @@ FULL_ORDER = {'observer.type': 'full_order', 'observer.poles': ['-3', '-4'],
      'is no field of geometry_msgs/msg/PoseStamped; it has pose.position.x, pose.position.y'),
     ({'sources.imu.fields': ['angular_velocity.z']}, "sources.imu.fields: 'imu' is no "
      "measurement source: observer.sources names ['wheels', 'camera']"),
-    ({'sources.camera.noise': [1.0]}, "sources.camera.noise: unknown setting 'noise'"),
+    ({'sources.camera.gain': [1.0]}, "sources.camera.gain: unknown setting 'gain'"),
     ({'sources.camera.outputs': ['wheel_v']}, 'sources.camera.outputs: output wheel_v is '
      "carried by sources 'wheels' and 'camera'"),
     ({'sources.camera.outputs': []}, 'sources.camera.outputs: expected 1 outputs'),

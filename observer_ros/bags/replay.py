@@ -50,6 +50,9 @@ from observer_ros.core.streaming import next_measurement_stamps
 #: name (``y`` without sources) for its own estimate, and these.
 RERUN, INPUT_EVENT, FLUSHED = 'rerun', 'input', 'flush'
 
+#: A replay reads every message's covariance before it runs: its blocks are all kept.
+NO_PRUNING = 1 << 62
+
 
 def replay_data(bag, system: Configuration, outputs: TopicData, inputs: TopicData,
                 use_log_time: bool = False, y_topic: str = 'y', u_topic: str = 'u',
@@ -111,8 +114,12 @@ def load_system(parameters: Union[str, os.PathLike, Configuration]) -> Configura
 def _replay_sources(bag, system: Configuration, y_topic: str, u_topic: str,
                     use_log_time: bool) -> 'ReplayResult':
     """:func:`replay_bag` message by message: measurement sources, or inputs by field."""
-    events, counts = recorded_events(bag, system, u_topic, use_log_time, y_topic)
     stream = system.observer.make_stream()
+    noise = getattr(stream.estimator, 'message_noise', None)  # noise: message, every block
+    if noise is not None:
+        noise.keep_ns = NO_PRUNING
+    events, counts = recorded_events(bag, system, u_topic, use_log_time, y_topic,
+                                     None if noise is None else noise.take)
     if use_log_time:
         stream.input_stamped = False
     if system.observer.unstamped_input == 'next_measurement' and not stream.input_stamped:

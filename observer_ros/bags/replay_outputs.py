@@ -21,6 +21,7 @@ written; :func:`write_replay` writes ``x_hat`` (and the innovation) of a
 into place, and removes what it wrote when a later one fails.
 """
 
+from dataclasses import dataclass
 import os
 from pathlib import Path
 import shutil
@@ -29,8 +30,9 @@ from typing import Optional
 import numpy as np
 
 from observer_ros.bags.replay_results import ReplayResult
-from observer_ros.bags.storage import BagError, STORAGES
+from observer_ros.bags.storage import absolute_topic, BagError, STORAGES
 from observer_ros.bags.writing import TopicToWrite, write_bag
+from observer_ros.wire.odometry import ODOMETRY
 
 
 def missing_parents(path: Path) -> list:
@@ -150,11 +152,12 @@ def write_replay(result: ReplayResult, bag: Optional[str] = None, csv: Optional[
     """
     Write ``x_hat`` (and the innovation) to a new bag and/or CSV files.
 
-    The bag's log times are the measurement stamps. The CSV has a row per published
-    estimate: ``stamp_ns``, ``event`` (what made the row: a measurement source's name, or
-    ``y`` without sources; ``rerun``, the newest estimate again after a late sample;
-    ``input``, released by the input it waited for; ``flush``, at the end of the bag), one
-    column per state, ``innovation_<output>`` (empty outputs of a partial update are
+    The bag's log times are the measurement stamps; with ``outputs.odometry.topic`` the bag
+    also holds the ``nav_msgs/Odometry`` of each estimate on that topic. The CSV has a row
+    per published estimate: ``stamp_ns``, ``event`` (what made the row: a measurement
+    source's name, or ``y`` without sources; ``rerun``, the newest estimate again after a
+    late sample; ``input``, released by the input it waited for; ``flush``, at the end of
+    the bag), one column per state, ``innovation_<output>`` (empty outputs of a partial update are
     ``nan``), and where the filter has a covariance ``variance_<state>``
     (``covariance='full'``: ``covariance_<row>_<column>``, row-major; ``'none'``: no
     columns). ``in_order`` writes the estimates in stamp order after every late sample
@@ -193,6 +196,8 @@ def write_replay(result: ReplayResult, bag: Optional[str] = None, csv: Optional[
                     '/innovation', innovations.type, innovations.field,
                     system.model.output_names, result.stamps_ns, result.stamps_ns,
                     result.innovations))
+            if system.observer is not None and system.observer.odometry is not None:
+                topics.append(odometry_topic(result, system.observer.odometry))
             write_bag(bag, topics, storage)
             written.append(Path(bag))
         for path, write in ((csv, _write_csv), (in_order, _write_in_order)):
@@ -203,6 +208,48 @@ def write_replay(result: ReplayResult, bag: Optional[str] = None, csv: Optional[
     except BaseException:
         remove_outputs(written, made)
         raise
+
+
+class OdometryTopicEncoder:
+    """The encoder :func:`~observer_ros.bags.storage.write_bag` asks of an Odometry topic."""
+
+    msgtype = ODOMETRY
+
+    def __init__(self, output, covariances) -> None:
+        from rosbags.typesys import get_typestore, Stores
+        self.output, self.covariances = output, covariances
+        self.typestore = get_typestore(Stores.ROS2_JAZZY)
+
+    def encode(self, stamps_ns, estimates) -> list:
+        """Return the serialized Odometry of each estimate."""
+        encoder, covariances = self.output.encoder(), self.covariances
+        return [self.output.encode(encoder, stamp, estimate,
+                                   None if covariances is None else covariances[k])
+                for k, (stamp, estimate) in enumerate(zip(stamps_ns.tolist(), estimates))]
+
+
+@dataclass(frozen=True)
+class EncodedTopic:
+    """A topic :func:`~observer_ros.bags.storage.write_bag` writes with its own encoder."""
+
+    topic: str
+    encoder: object
+    stamps_ns: np.ndarray
+    log_times_ns: np.ndarray
+    values: np.ndarray
+
+
+def odometry_topic(result: ReplayResult, output) -> EncodedTopic:
+    """
+    Return the ``nav_msgs/Odometry`` topic of a replay's estimates (``outputs.odometry``).
+
+    Its name is ``outputs.odometry.topic`` taken from the root; the covariance is the
+    replay's ``P`` where the filter has one. ``/tf`` is not written: a bag replayed with
+    ``ros2 bag play`` next to the node would give two parents of the child frame.
+    """
+    return EncodedTopic(absolute_topic(output.topic),
+                        OdometryTopicEncoder(output, result.covariances),
+                        result.stamps_ns, result.stamps_ns, result.estimates)
 
 
 def made_directories(*paths) -> list:
@@ -226,5 +273,6 @@ def remove_outputs(written, directories=()) -> None:
             continue
 
 
-__all__ = ['COVARIANCE_COLUMNS', 'check_outputs', 'check_writable_parent', 'made_directories',
-           'missing_parents', 'remove_outputs', 'write_replay']
+__all__ = ['COVARIANCE_COLUMNS', 'EncodedTopic', 'OdometryTopicEncoder', 'check_outputs',
+           'check_writable_parent', 'made_directories', 'missing_parents', 'odometry_topic',
+           'remove_outputs', 'write_replay']

@@ -174,7 +174,8 @@ class _FieldCheck:
 
 
 def recorded_events(bag, system: Configuration, u_topic: str = 'u',
-                    use_log_time: bool = False, y_topic: str = 'y') -> tuple:
+                    use_log_time: bool = False, y_topic: str = 'y',
+                    on_message=None) -> tuple:
     """
     Read the measurement sources' and the inputs' messages of a bag, in bag order.
 
@@ -183,7 +184,8 @@ def recorded_events(bag, system: Configuration, u_topic: str = 'u',
     ``topics.y`` says), its header stamp where the type has one and it is not zero, else
     its log time (the node, under ``play_bag``, stamps it with ``/clock``, which is that
     log time); the log time is its arrival. Sources that share a topic each read every
-    message of it, in the order of ``observer.sources``.
+    message of it, in the order of ``observer.sources``. ``on_message(source, stamp_ns,
+    raw)``, when given, sees each message read (``sources.<name>.noise: message``).
 
     Returns
     -------
@@ -229,6 +231,8 @@ def recorded_events(bag, system: Configuration, u_topic: str = 'u',
                     counts[name]['malformed'] += 1
                     continue
                 stamp = log_time if use_log_time or not stamp else stamp
+                if on_message is not None:
+                    on_message(name, stamp, raw)
                 events.append(RecordedEvent(name, stamp, np.array(values, dtype=float),
                                             log_time))
         check.finish()

@@ -81,7 +81,8 @@ def write_bag(path, topics: Sequence[TopicToWrite], storage: str = 'mcap') -> Pa
         with Writer(partial, version=9, storage_plugin=plugin) as writer:
             streams = []
             for item in topics:
-                encoder = Encoder(item.kind, item.names, item.field)
+                encoder = getattr(item, 'encoder', None) or Encoder(item.kind, item.names,
+                                                                    item.field)
                 connection = writer.add_connection(
                     absolute_topic(item.topic), encoder.msgtype, typestore=encoder.typestore,
                     offered_qos_profiles=_qos())

@@ -41,7 +41,9 @@ from typing import Iterator, Optional
 import numpy as np
 
 from observer_ros.config.binding import Binding
+from observer_ros.config.message_noise import attach_message_noise
 from observer_ros.config.model import Augmentation
+from observer_ros.config.odometry import odometry_output, OdometryOutput
 from observer_ros.config.sections import (
     JointStatesSection, ModelSection, ObserverSection, Sections)
 from observer_ros.config.sources import measurement_sources, SOURCE_ARGUMENTS, SourcesSetup
@@ -162,6 +164,7 @@ def observer_design(sections: Sections, augmentation: Augmentation) -> Optional[
         raise ConfigError(parameter, f'the {kind.name} observer cannot keep angles (its type '
                           f'has no capability angles); expected none, or another observer.type')
     joint_states = joint_state_selection(section.joint_states, model)
+    odometry = odometry_output(section.odometry, model.state_names)  # outputs.odometry.*
     if design is None:
         return None
     limits = ValueLimits(measurement=topics['y'].limit, input=topics['u'].limit,
@@ -176,7 +179,7 @@ def observer_design(sections: Sections, augmentation: Augmentation) -> Optional[
         publish_rate=section.publish_rate, limits=limits, input_stamped=topics['u'].stamped,
         joint_states=joint_states, binding=binding, design_source=design_source,
         sources=sources, history_ns=history_ns, angles=angles,
-        unstamped_input=section.unstamped_input)
+        unstamped_input=section.unstamped_input, odometry=odometry)
 
 
 @contextmanager
@@ -287,6 +290,7 @@ class ObserverSetup:
     history_ns: int = 0
     angles: Angles = Angles()
     unstamped_input: str = 'arrival'
+    odometry: Optional[OdometryOutput] = None
     _built: list = dataclass_field(default_factory=list, compare=False, repr=False)
 
     @property
@@ -351,6 +355,7 @@ class ObserverSetup:
 
         """
         estimator = self.make_estimator()
+        attach_message_noise(estimator, self.sources, self.history_ns)  # noise: message
         binding = self.binding | SOURCE_ARGUMENTS
         with binding.charged('observer.sources'):
             return EventStream(estimator, self.max_gap_ns, input_stamped=self.input_stamped,

@@ -451,7 +451,7 @@ def _topic_parameters(topic: str, names: str, nodes: tuple) -> tuple:
 
 #: The settings of every measurement source: ``sources.<name>.<setting>``.
 SOURCE_SETTINGS = ('topic', 'type', 'fields', 'outputs', 'measurement_noise', 'latency',
-                   'timeout', 'predict_only')
+                   'timeout', 'predict_only', 'noise')
 
 #: Placeholder of the source name in the parameter table.
 SOURCE_NAME = '<name>'
@@ -498,6 +498,12 @@ def source_specs(name: str) -> tuple:
               'correct the estimate (an unobservable subset for a steady-state Kalman filter '
               'or a full-order observer), its samples alone only move the estimate forward '
               'instead of the configuration being refused.', _OBS),
+        _spec(named('noise'), STRING, 'configured', 'configured: R as configured; message: '
+              "the block of R of each sample from its message's covariance (imu, odometry, "
+              'pose_with_covariance_stamped, twist_with_covariance_stamped; the time-varying '
+              'and nonlinear Kalman filters); an unknown (-1), non-finite or not positive '
+              'definite covariance: the configured block, counted.', _OBS,
+              choices=('configured', 'message')),
     )
 
 
@@ -506,7 +512,29 @@ def source_specs(name: str) -> tuple:
 OBSERVER_ARGUMENTS = {argument.name: f'observer.{argument.name}'
                       for argument in observer_arguments()}
 
-PARAMETERS = (MODEL + OBSERVER_STREAM
+#: ``outputs.odometry.*``: the nav_msgs/Odometry (and /tf) of the estimate (empty topic: none).
+ODOMETRY_OUTPUT = (
+    _spec('outputs.odometry.topic', STRING, '', 'Topic of a nav_msgs/Odometry of each '
+          'estimate (pose and twist from the states named below, covariance from P); empty '
+          '(the default): none.', _OBS),
+    _spec('outputs.odometry.frame_id', STRING, 'odom', 'header.frame_id of the Odometry: '
+          'the frame of the pose (and the parent of the /tf transform).', _OBS),
+    _spec('outputs.odometry.child_frame_id', STRING, 'base_link', 'child_frame_id of the '
+          'Odometry: the frame of the twist (and the child of the /tf transform).', _OBS),
+    *(_spec(f'outputs.odometry.{quantity}', STRING, '', f'The state that gives the '
+            f"Odometry's {what}; empty: none (zero, with outputs.odometry.absent_variance).",
+            _OBS) for quantity, what in (
+                ('x', 'position x'), ('y', 'position y'), ('yaw', 'yaw (as a quaternion)'),
+                ('vx', 'forward speed twist.linear.x'), ('vy', 'lateral speed twist.linear.y'),
+                ('wz', 'yaw rate twist.angular.z'))),
+    _spec('outputs.odometry.absent_variance', DOUBLE, 0.0, "The variance on the covariances' "
+          'diagonal where no state is named (and everywhere for an observer without P); >= 0.',
+          _OBS, low=0.0, high=1e18),
+    _spec('outputs.odometry.publish_tf', BOOL, True, 'Also publish frame_id -> child_frame_id '
+          'on /tf where tf2_msgs is installed (a ROS 2 install); skipped otherwise.', _OBS),
+)
+
+PARAMETERS = (MODEL + OBSERVER_STREAM + ODOMETRY_OUTPUT
               + tuple(_on(_OBS, argument, OBSERVER_ARGUMENTS[argument.name])
                       for argument in observer_arguments())
               + FEEDBACK_PARAMETERS + CONTROLLER_PARAMETERS + LIFECYCLE_PARAMETERS

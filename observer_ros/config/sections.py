@@ -81,6 +81,23 @@ class JointStatesSection(Section):
 
 
 @dataclass(frozen=True)
+class OdometrySection(Section):
+    """``outputs.odometry.*``: the Odometry of the estimate, its frames and its states."""
+
+    topic: str = bound('outputs.odometry.topic')
+    frame_id: str = bound('outputs.odometry.frame_id')
+    child_frame_id: str = bound('outputs.odometry.child_frame_id')
+    x: str = bound('outputs.odometry.x')
+    y: str = bound('outputs.odometry.y')
+    yaw: str = bound('outputs.odometry.yaw')
+    vx: str = bound('outputs.odometry.vx')
+    vy: str = bound('outputs.odometry.vy')
+    wz: str = bound('outputs.odometry.wz')
+    absent_variance: float = bound('outputs.odometry.absent_variance')
+    publish_tf: bool = bound('outputs.odometry.publish_tf')
+
+
+@dataclass(frozen=True)
 class ObserverSection(Section):
     """
     ``observer.*``: the type, the stream's settings and every observer type's arguments.
@@ -105,6 +122,7 @@ class ObserverSection(Section):
     history: float = bound('observer.history')
     sources: list = bound('observer.sources')
     joint_states: JointStatesSection = nested(JointStatesSection)
+    odometry: OdometrySection = nested(OdometrySection)
     arguments: dict = field(default_factory=dict)
 
     @classmethod

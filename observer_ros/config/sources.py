@@ -35,6 +35,7 @@ from typing import Optional
 import numpy as np
 
 from observer_ros.config.binding import Binding
+from observer_ros.config.message_noise import covariance_reader
 from observer_ros.config.schema import FIELD_MESSAGE_TYPES
 from observer_ros.config.sections import Sections
 from observer_ros.config.timing import sample_rate
@@ -95,6 +96,8 @@ def _source(settings: SourceSettings, model: StateSpaceModel) -> MeasurementSour
         raise ConfigError(outputs, f'expected {len(settings.fields)} outputs (one per field '
                           f'of {fields}), got {len(settings.outputs)}')
     carried = indices(outputs, settings.outputs, model.output_names, 'output')
+    if settings.noise == 'message':  # the type and each field must have a covariance
+        covariance_reader(settings.parameter('noise'), msgtype, settings.fields)
     return MeasurementSource(settings.name, carried, seconds_to_ns(settings.latency),
                              seconds_to_ns(settings.timeout), settings.predict_only)
 

@@ -109,6 +109,8 @@ class SourceSettings:
     latency, timeout : float
         Seconds.
     predict_only : bool
+    noise : str
+        ``configured`` or ``message`` (``R`` from each message's covariance).
 
     """
 
@@ -121,6 +123,7 @@ class SourceSettings:
     latency: float
     timeout: float
     predict_only: bool
+    noise: str = 'configured'
 
     def parameter(self, setting: str) -> str:
         """Return the parameter of one of its settings: ``sources.imu.fields``."""

@@ -51,6 +51,7 @@ from observer_ros.core.units import NANOSECONDS, rate_to_period_ns
 from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import (
     JointStatesEncoder, MalformedMessage, source_codecs, topic_codec)
+from observer_ros.ros.odometry import OdometryPublisher
 from observer_ros.ros.parameters import ConfiguredNode
 
 
@@ -92,6 +93,7 @@ class ObserverWiring:
         if setup.joint_states is not None:
             self.joint_states = (JointStatesEncoder(setup.joint_states),
                                  self.topic_publisher(JointState, 'joint_states_hat'))
+        self.odometry = setup.odometry and OdometryPublisher(self, setup.odometry)  # and /tf
         self.limits = {topic: system.topics[topic].limit for topic in topics}
         # Measurement sources (observer.sources), each on its topic; else y with every output.
         self.sources = source_codecs(system)
@@ -245,6 +247,9 @@ class ObserverWiring:
         topic, codec = self.sources[name]
         stamp, y = self._decode(name, message, codec)
         if y is not None:
+            noise = getattr(self.stream.estimator, 'message_noise', None)  # noise: message
+            if noise is not None:
+                noise.take(name, stamp, message)
             self._run(self.stream.add_measurement, stamp, y, self._clock_for(stamp),
                       time.monotonic_ns(), name)
 
@@ -306,6 +311,8 @@ class ObserverWiring:
                                                                  sample.estimate))
             if self.joint_states is not None:
                 self._publish_joint_states(sample.stamp_ns, sample.estimate)
+            if self.odometry:
+                self.odometry.publish(sample)
         self._publish_rest(samples)
 
     def _publish_joint_states(self, stamp: int, estimate) -> None:

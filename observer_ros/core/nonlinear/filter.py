@@ -99,6 +99,11 @@ class NonlinearFilter(PinnedInitialState, SubsetUpdates, Estimator):
 
     """
 
+    #: The blocks of ``R`` the samples brought (:class:`~observer_ros.core.message_noise.
+    #: SampleNoise`, set where a source takes its noise from its messages), or None.
+    message_noise = None
+    _stamp_taken = None
+
     def __init__(self, model: NonlinearModel, process_noise, measurement_noise,
                  initial_covariance=None, initial_state=None,
                  max_step: float = DEFAULT_MAX_STEP) -> None:
@@ -210,6 +215,8 @@ class NonlinearFilter(PinnedInitialState, SubsetUpdates, Estimator):
             index = list(outputs)
             block = np.ascontiguousarray(self.measurement_noise[np.ix_(index, index)])
             self._blocks[outputs] = block
+        if self.message_noise is not None:  # the sample's own block, where it brought one
+            return self.message_noise.block(self._stamp_taken, outputs, block)
         return block
 
     def wrap_outputs(self, residual: np.ndarray, outputs: tuple) -> np.ndarray:
@@ -253,6 +260,7 @@ class NonlinearFilter(PinnedInitialState, SubsetUpdates, Estimator):
 
         """
         outputs = tuple(outputs)
+        self._stamp_taken = stamp_ns
         if self._stamp is None:
             x_prior, p_prior, interval = self._prior_x, self._prior_p, 0
         else:

@@ -117,6 +117,10 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
 
     """
 
+    #: The blocks of ``R`` the samples brought (:class:`~observer_ros.core.message_noise.
+    #: SampleNoise`, set where a source takes its noise from its messages), or None.
+    message_noise = None
+
     def __init__(self, model: StateSpaceModel, process_noise, measurement_noise,
                  initial_covariance=None, initial_state=None,
                  interval_resolution_ns: int = 0) -> None:
@@ -307,14 +311,23 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
             self._subsets[outputs] = rows
         return rows
 
+    def _noise_rows(self, stamp_ns: int, outputs: tuple) -> tuple:
+        """:meth:`_rows` of ``outputs`` with the ``R`` the sample at ``stamp_ns`` brought."""
+        c, r, c_row, _, rhs = self._rows(outputs)
+        r = self.message_noise.block(stamp_ns, outputs, r)
+        return c, r, c_row, float(r[0, 0]), rhs
+
     def advance(self, stamp_ns: int, y: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Take a sample whose values are checked already; return ``x[k|k]``."""
         x_prior, p_prior = self._prior(stamp_ns, u)
         angles = self.angles
+        rows = None
+        if self.message_noise is not None and self.message_noise.has(stamp_ns):
+            rows = self._noise_rows(stamp_ns, tuple(range(self.n_outputs)))
         if angles is None:
-            self._measure(x_prior, p_prior, y)
+            self._measure(x_prior, p_prior, y, rows)
         else:  # y moved by whole turns to the predicted branch: the innovation is wrapped
-            self._measure(x_prior, p_prior, angles.near(y, self.model.c @ x_prior))
+            self._measure(x_prior, p_prior, angles.near(y, self.model.c @ x_prior), rows)
             self._x = angles.keep(np.array(self._x, dtype=float))
         self._stamp = stamp_ns
         return self._x
@@ -361,6 +374,8 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
             return self.advance(stamp_ns, y, u)
         x_prior, p_prior = self._prior(stamp_ns, u)
         rows = self._rows(outputs)
+        if self.message_noise is not None and self.message_noise.has(stamp_ns):
+            rows = self._noise_rows(stamp_ns, outputs)
         angles = self.angles
         if angles is None:
             self._measure(x_prior, p_prior, y, rows)
