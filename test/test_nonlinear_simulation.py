@@ -43,11 +43,12 @@ from observer_ros.core.errors import ConfigError
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.nonlinear import (
     differential_drive, ExtendedKalman, linear_as_expressions, UnscentedKalman)
-from observer_ros.core.nonlinear import simulation
+from observer_ros.core.nonlinear import operating_point, simulation
 from observer_ros.core.nonlinear.ekf import integrate, integrate_midpoint
 from observer_ros.core.nonlinear.model import NonlinearModel
-from observer_ros.core.nonlinear.simulation import (
-    arm_joint, linearize, NonlinearPlantSimulator, simulate_observer_controller)
+from observer_ros.core.nonlinear.operating_point import (
+    arm_joint, linearize, simulate_observer_controller)
+from observer_ros.core.nonlinear.simulation import NonlinearPlantSimulator
 from observer_ros.core.observers.kalman.time_varying import TimeVaryingKalman
 from observer_ros.core.simulation import PlantSimulator
 
@@ -183,6 +184,8 @@ def test_a_state_that_leaves_the_domain_is_an_error_naming_the_model():
 def test_the_module_examples_run():
     result = doctest.testmod(simulation, optionflags=doctest.NORMALIZE_WHITESPACE)
     assert result.attempted and not result.failed
+    result = doctest.testmod(operating_point, optionflags=doctest.NORMALIZE_WHITESPACE)
+    assert not result.failed
 
 
 MASS, LENGTH, GRAVITY, DAMPING = 1.0, 0.5, 9.81, 0.1

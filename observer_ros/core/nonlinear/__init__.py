@@ -20,8 +20,9 @@ evaluated); :class:`NonlinearModel` holds the equations of ``x' = f(x, u)`` and 
 output's ``h(x, u)`` with their exact Jacobians (SymPy, generated once); the extended and
 unscented Kalman filters (:mod:`~observer_ros.core.nonlinear.ekf`,
 :mod:`~observer_ros.core.nonlinear.ukf`) run them in the event engine like any estimator;
-:mod:`~observer_ros.core.nonlinear.simulation` simulates them as a plant, linearizes them at
-an operating point and runs the closed loop with a law designed there.
+:mod:`~observer_ros.core.nonlinear.simulation` simulates them as a plant, and
+:mod:`~observer_ros.core.nonlinear.operating_point` linearizes them at an operating point
+and runs the closed loop with a law designed there.
 """
 
 from observer_ros.core.nonlinear.ekf import ExtendedKalman
@@ -30,8 +31,9 @@ from observer_ros.core.nonlinear.expressions import (
 from observer_ros.core.nonlinear.filter import NonlinearFilter
 from observer_ros.core.nonlinear.model import (
     differential_drive, linear_as_expressions, NonlinearModel)
-from observer_ros.core.nonlinear.simulation import (
-    arm_joint, linearize, NonlinearPlantSimulator, simulate_observer_controller)
+from observer_ros.core.nonlinear.operating_point import (
+    arm_joint, linearize, simulate_observer_controller)
+from observer_ros.core.nonlinear.simulation import NonlinearPlantSimulator
 from observer_ros.core.nonlinear.ukf import UnscentedKalman
 
 __all__ = ['Expression', 'ExpressionError', 'ExtendedKalman', 'FUNCTIONS', 'NonlinearFilter',
