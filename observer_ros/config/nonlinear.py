@@ -39,9 +39,13 @@ named by its parameter (``model.dynamics: entry 3 (yaw): ...``).
 from typing import Any, Mapping, Optional
 
 from observer_ros.core.errors import ConfigError
+from observer_ros.core.nonlinear.linearize import (
+    linearize, LinearizedModel, nonlinear_model_of)
 from observer_ros.core.nonlinear.model import NonlinearModel
+from observer_ros.core.observers import observer_types
 
-__all__ = ['NONLINEAR_PARAMETERS', 'read_nonlinear_model']
+__all__ = ['NONLINEAR_PARAMETERS', 'read_linearized_model', 'read_nonlinear_model',
+           'refuse_equations']
 
 #: ``(name, value type, default, description)`` of the parameters of the equations; the
 #: names, angles and ``model.dt`` are the linear model's own parameters.
@@ -57,7 +61,15 @@ NONLINEAR_PARAMETERS = (
      'the expressions use (a wheel radius, a mass).'),
     ('model.constant_values', 'double_array', [], 'With model.dynamics: the value of each of '
      'model.constant_names.'),
+    ('model.operating_point_states', 'double_array', [], 'With model.dynamics: the state x0 '
+     'where the equations are linearized exactly (the linear model the names, sources and '
+     'designs read), one value per name of model.state_names. Empty: zero.'),
+    ('model.operating_point_inputs', 'double_array', [], 'With model.dynamics: the input u0 '
+     'of the operating point, one value per name of model.input_names. Empty: zero.'),
 )
+
+#: The linear model's own parameters, which a model written as equations replaces.
+LINEAR_PARAMETERS = ('model.A', 'model.B', 'model.C', 'model.D')
 
 #: The arguments of :class:`NonlinearModel` and the parameters that give them.
 PARAMETER_OF = {'states': 'model.state_names', 'inputs': 'model.input_names',
@@ -142,3 +154,71 @@ def _renamed(error: ConfigError, states: list, outputs: list) -> ConfigError:
     if kind == 'constants' and which:
         return ConfigError('model.constant_values', f'{which}: {error.reason}')
     return ConfigError(PARAMETER_OF.get(kind, error.parameter), error.reason)
+
+
+def read_linearized_model(section) -> Optional[LinearizedModel]:
+    """
+    Return the model of ``model.dynamics`` linearized at its operating point; None without.
+
+    ``section``: the :class:`~observer_ros.config.sections.ModelSection` (its fields bound to
+    the parameters of :data:`NONLINEAR_PARAMETERS` and the names).
+
+    The one conversion of a model written as equations in a configuration: the
+    :class:`~observer_ros.core.nonlinear.linearize.LinearizedModel` is the configuration's
+    model (its ``A``, ``B``, ``C``, ``D`` the exact Jacobians at
+    ``model.operating_point_states`` and ``model.operating_point_inputs``) and carries the
+    equations to the filters that run them.
+
+    Raises
+    ------
+    ConfigError
+        As :func:`read_nonlinear_model`; ``model.A`` (or ``B``, ``C``, ``D``) given as well;
+        an operating point of the wrong size, or where a Jacobian is not finite.
+
+    """
+    params = {parameter: getattr(section, field)
+              for field, parameter in section.bindings().items()}
+    model = read_nonlinear_model(params)
+    if model is None:
+        for name in ('model.measurements', 'model.constant_names', 'model.constant_values',
+                     'model.operating_point_states', 'model.operating_point_inputs'):
+            if params.get(name):
+                raise ConfigError(name, 'given without model.dynamics; write the dynamics '
+                                  'there or leave it empty')
+        return None
+    for name in LINEAR_PARAMETERS:
+        if params.get(name):
+            raise ConfigError(name, 'a model written as equations (model.dynamics) is '
+                              'linearized at model.operating_point_states; expected it empty')
+    if not model.n_outputs:
+        raise ConfigError('model.measurements', 'expected at least one output: names in '
+                          'model.output_names and their expressions here')
+    try:
+        return linearize(model, params.get('model.operating_point_states'),
+                         params.get('model.operating_point_inputs'))
+    except ConfigError as e:
+        parameter = {'operating_state': 'model.operating_point_states',
+                     'operating_input': 'model.operating_point_inputs'}[e.parameter]
+        raise ConfigError(parameter, e.reason) from None
+
+
+def refuse_equations(kind, model, parameter: str) -> None:
+    """
+    Refuse an observer type that cannot run the equations ``model`` carries.
+
+    ``kind``: the :class:`~observer_ros.core.observers.ObserverType` of ``observer.type``
+    (``parameter``); its capability ``equations`` says whether its estimator runs them.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``parameter``: the model is written as equations and the type runs a linear
+        model only.
+
+    """
+    if nonlinear_model_of(model) is None or kind.capabilities.equations:
+        return
+    able = [other.name for other in observer_types() if other.capabilities.equations]
+    raise ConfigError(parameter, f'a {kind.name} observer runs a linear model and the model '
+                      f'is written as equations (model.dynamics); expected one of {able}, '
+                      f'or the linear model in model.A, model.B, model.C')

@@ -41,6 +41,7 @@ from typing import Iterator, Optional
 import numpy as np
 
 from observer_ros.config.model import Augmentation
+from observer_ros.config.nonlinear import refuse_equations
 from observer_ros.config.sections import (
     Binding, JointStatesSection, ModelSection, ObserverSection, Sections)
 from observer_ros.config.sources import measurement_sources, SourcesSetup
@@ -136,6 +137,7 @@ def observer_design(sections: Sections, augmentation: Augmentation) -> Optional[
     binding = ModelSection.binding() | section.binding()
     with binding.charged(binding['type']):
         kind = observer_type(section.type)
+    refuse_equations(kind, model, binding['type'])
     history_ns = seconds_to_ns(section.history, binding['history'])
     sources = measurement_sources(sections, model)
     given = _with_source_noise(section.arguments, sources, kind, binding)

@@ -95,6 +95,11 @@ class Capabilities:
         modes that do not decay (a Kalman filter, for which a detectable pair suffices);
         the one observability rule (:func:`~observer_ros.core.analysis.observability_problem`)
         is asked either way.
+    equations : bool
+        Its estimator runs a model written as equations (``model.dynamics``): the
+        configuration's model is then their linearization
+        (:class:`~observer_ros.core.nonlinear.linearize.LinearizedModel`) and the estimator
+        takes the equations it carries. A type without it refuses such a model.
     disturbance_arguments : tuple of str
         Its arguments that only apply to a model with ``model.disturbances`` (refused
         without), which the type itself consumes from the disturbance transform it is
@@ -114,6 +119,7 @@ class Capabilities:
     needs_observable: bool = True
     angles: bool = False
     disturbance_arguments: tuple = ()
+    equations: bool = False
 
 
 def _no_report(design: ObserverDesign) -> tuple:
