@@ -170,7 +170,7 @@ def test_a_step_that_is_not_finite_is_dropped_and_counted_by_the_stream():
                              'log(yaw)']}, 'model.operating_point_states',
      'the Jacobians are not finite at the operating point'),
     ({'observer.type': 'full_order', 'observer.poles': ['-1', '-2', '-3', '-4', '-5']},
-     'observer.type', "a full_order observer runs a linear model and the model is written as "
+     'observer.type', 'a full_order observer runs a linear model and the model is written as '
      "equations (model.dynamics); expected one of ['extended_kalman', 'unscented_kalman']"),
     ({'model.disturbances': ['constant']}, 'model.disturbances', 'takes no disturbances'),
 ])
