@@ -54,7 +54,8 @@ def test_the_parameters_give_the_differential_drive_model():
     assert read_nonlinear_model({'model.A': [0.0]}) is None
     assert [entry[0] for entry in NONLINEAR_PARAMETERS] == [
         'model.dynamics', 'model.measurements', 'model.constant_names',
-        'model.constant_values', 'model.operating_point_states', 'model.operating_point_inputs']
+        'model.constant_values', 'model.operating_point_states', 'model.operating_point_inputs',
+        'model.function']
     for name, value_type, default, _ in NONLINEAR_PARAMETERS:
         spec = PARAMETER_SPECS[name]
         assert (spec.value_type, spec.default, spec.dynamic) == (value_type, default, False)

@@ -39,6 +39,7 @@ named by its parameter (``model.dynamics: entry 3 (yaw): ...``).
 from typing import Any, Mapping, Optional
 
 from observer_ros.core.errors import ConfigError
+from observer_ros.core.nonlinear.functions import function_model
 from observer_ros.core.nonlinear.linearize import (
     linearize, LinearizedModel, nonlinear_model_of)
 from observer_ros.core.nonlinear.model import NonlinearModel
@@ -66,6 +67,10 @@ NONLINEAR_PARAMETERS = (
      'designs read), one value per name of model.state_names. Empty: zero.'),
     ('model.operating_point_inputs', 'double_array', [], 'With model.dynamics: the input u0 '
      'of the operating point, one value per name of model.input_names. Empty: zero.'),
+    ('model.function', 'string', '', 'Instead of model.dynamics and model.measurements: the '
+     'name of a model of Python functions registered in the entry point group '
+     'observer_ros.nonlinear_models (f, h and their Jacobians; made with the constants of '
+     'model.constant_names). Empty: none.'),
 )
 
 #: The linear model's own parameters, which a model written as equations replaces.
@@ -117,6 +122,9 @@ of model.state_names (2: ['a', 'b']), got 1
 
     """
     dynamics = _strings(params, 'model.dynamics')
+    function = params.get('model.function') or ''
+    if function:
+        return _function_model(params, function, dynamics)
     if not dynamics:
         return None
     states = _strings(params, 'model.state_names')
@@ -141,6 +149,30 @@ of model.state_names (2: ['a', 'b']), got 1
             _strings(params, 'model.angle_outputs'))
     except ConfigError as e:
         raise _renamed(e, states, outputs) from None
+
+
+def _function_model(params: Mapping[str, Any], function: str, dynamics: list):
+    """Return the model of Python functions ``model.function`` names."""
+    for name in ('model.dynamics', 'model.measurements'):
+        if params.get(name):
+            raise ConfigError(name, f'model.function ({function!r}) gives the model; expected '
+                              f'it empty')
+    if not isinstance(function, str):
+        raise ConfigError('model.function', f'expected a name, got {function!r}')
+    constant_names = _strings(params, 'model.constant_names')
+    constant_values = list(params.get('model.constant_values') or [])
+    if len(constant_values) != len(constant_names):
+        raise ConfigError('model.constant_values', f'expected one value per name of '
+                          f'model.constant_names ({len(constant_names)}: {constant_names}), '
+                          f'got {len(constant_values)}')
+    try:
+        return function_model(
+            function, dict(zip(constant_names, constant_values)),
+            _strings(params, 'model.state_names'), _strings(params, 'model.output_names'),
+            _strings(params, 'model.input_names'), params.get('model.dt', 0.0),
+            _strings(params, 'model.angle_states'), _strings(params, 'model.angle_outputs'))
+    except ConfigError as e:
+        raise ConfigError(PARAMETER_OF.get(e.parameter, 'model.function'), e.reason) from None
 
 
 def _renamed(error: ConfigError, states: list, outputs: list) -> ConfigError:
@@ -183,8 +215,8 @@ def read_linearized_model(section) -> Optional[LinearizedModel]:
         for name in ('model.measurements', 'model.constant_names', 'model.constant_values',
                      'model.operating_point_states', 'model.operating_point_inputs'):
             if params.get(name):
-                raise ConfigError(name, 'given without model.dynamics; write the dynamics '
-                                  'there or leave it empty')
+                raise ConfigError(name, 'given without model.dynamics (or model.function); '
+                                  'write the dynamics there or leave it empty')
         return None
     for name in LINEAR_PARAMETERS:
         if params.get(name):
@@ -196,10 +228,18 @@ def read_linearized_model(section) -> Optional[LinearizedModel]:
     try:
         return linearize(model, params.get('model.operating_point_states'),
                          params.get('model.operating_point_inputs'))
-    except ConfigError as e:
-        parameter = {'operating_state': 'model.operating_point_states',
-                     'operating_input': 'model.operating_point_inputs'}[e.parameter]
-        raise ConfigError(parameter, e.reason) from None
+    except ValueError as e:  # a model of functions that gave the wrong shapes
+        if isinstance(e, ConfigError):
+            raise _operating_point_error(e) from None
+        raise ConfigError('model.function', f'{model.name!r}: {e}') from None
+
+
+def _operating_point_error(e: ConfigError) -> ConfigError:
+    """Return an error of :func:`linearize` named by its parameter."""
+    parameter = {'operating_state': 'model.operating_point_states',
+                 'operating_input': 'model.operating_point_inputs'}.get(e.parameter,
+                                                                        'model.function')
+    return ConfigError(parameter, e.reason)
 
 
 def refuse_equations(kind, model, parameter: str) -> None:

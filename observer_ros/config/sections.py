@@ -315,6 +315,7 @@ class ModelSection(Section):
     constant_values: list = bound('model.constant_values')
     operating_point_states: list = bound('model.operating_point_states')
     operating_point_inputs: list = bound('model.operating_point_inputs')
+    function: str = bound('model.function')
 
 
 @dataclass(frozen=True)

@@ -18,7 +18,8 @@ A nonlinear model linearized exactly at an operating point: the linear model it 
 
 :func:`linearize` evaluates SymPy's exact Jacobians ``A = df/dx``, ``B = df/du``,
 ``C = dh/dx`` and ``D = dh/du`` at the operating point ``(x0, u0)`` (generated functions
-called with the model's exact binary parameters; no finite differences). The result is a
+called with the model's exact binary parameters; a model of Python functions gives its own
+Jacobians: no finite differences). The result is a
 :class:`LinearizedModel`: a :class:`~observer_ros.core.model.StateSpaceModel` that also
 carries the equations, so everything that reads a linear model (the names, the sources'
 outputs, the topics, the designs of the linear types) reads it, and an estimator that can
@@ -108,23 +109,13 @@ def linearize(model: NonlinearModel, operating_state=None,
     [[0.0, 1.0], [-9.81, -0.0]]
 
     """
-    import sympy as sp
     x0 = _point('operating_state', operating_state, model.n_states, model.state_names)
     u0 = _point('operating_input', operating_input, model.n_inputs, model.input_names)
-    f, h, x, u = model.symbolic()
-    rows = [sp.diff(fi, v) for fi in f for v in tuple(x) + tuple(u)]
-    rows += [sp.diff(hi, v) for hi in h for v in tuple(x) + tuple(u)]
-    with np.errstate(all='ignore'):  # outside a domain: not finite, refused below
-        values = model._lambdify(rows)(x0, u0, model.parameters) if rows else []
-    values = np.array([np.nan] * len(rows) if values is None else values, dtype=float)
-    if not np.isfinite(values).all():
+    a, b, c, d = model.jacobians_at(x0, u0)
+    if not all(np.isfinite(matrix).all() for matrix in (a, b, c, d)):
         raise ConfigError('operating_state', 'the Jacobians are not finite at the operating '
                           f'point (x0 = {x0.tolist()}, u0 = {u0.tolist()}); expected a point '
                           'inside the domain of every function of the model')
-    n, m, p = model.n_states, model.n_inputs, model.n_outputs
-    top = values[:n * (n + m)].reshape(n, n + m)
-    bottom = values[n * (n + m):].reshape(p, n + m)
     return LinearizedModel(
-        top[:, :n].copy(), top[:, n:].copy(), bottom[:, :n].copy(), bottom[:, n:].copy(),
-        model.dt, tuple(model.state_names), tuple(model.input_names),
+        a, b, c, d, model.dt, tuple(model.state_names), tuple(model.input_names),
         tuple(model.output_names), nonlinear=model, operating_state=x0, operating_input=u0)
