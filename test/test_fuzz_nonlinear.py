@@ -16,9 +16,10 @@
 Fuzz of every parameter of a model written as equations, and of its run time.
 
 Hypothesis draws values for each of ``model.dynamics``, ``model.measurements``,
-``model.constant_names``, ``model.constant_values``, ``model.operating_point_states`` and
-``model.operating_point_inputs`` and ``model.function`` (texts of any characters, code a user should not run,
-numbers that are not finite, lists of the wrong length, names of the wrong kind): the
+``model.constant_names``, ``model.constant_values``, ``model.operating_point_states``,
+``model.operating_point_inputs`` and ``model.function`` (texts of any characters, code a
+user should not run, numbers that are not finite, lists of the wrong length, names of the
+wrong kind): the
 configuration is either valid or refused with a :class:`ConfigError` naming a ``model.*``
 parameter, never another exception, and nothing is evaluated. At run time, measurements
 that drive the equations out of their domain (``sqrt``, ``log`` of a negative state) are

@@ -170,9 +170,8 @@ def test_a_step_that_is_not_finite_is_dropped_and_counted_by_the_stream():
     ({'model.measurements': ['(v - w * b / 2) / r', '(v + w * b / 2) / r', 'w', 'px', 'py',
                              'log(yaw)']}, 'model.operating_point_states',
      'the Jacobians are not finite at the operating point'),
-    ({'observer.type': 'full_order', 'observer.poles': ['-1', '-2', '-3', '-4', '-5']},
-     'observer.type', 'a full_order observer runs a linear model and the model is written as '
-     "equations (model.dynamics); expected one of ['extended_kalman', 'unscented_kalman']"),
+    ({'observer.type': 'kalman', 'observer.time_varying': True}, 'observer.time_varying',
+     'the time-varying Kalman filter propagates its covariance with the linear model'),
     ({'model.disturbances': ['constant']}, 'model.disturbances', 'takes no disturbances'),
 ])
 def test_a_bad_model_written_as_equations_is_refused_naming_the_parameter(change, parameter,

@@ -140,8 +140,8 @@ def test_a_registered_model_runs_as_the_same_equations_do(registered, kind):
     ({'model.dynamics': SYSTEM['model.dynamics']}, 'model.dynamics',
      "model.function ('test_base') gives the model; expected it empty"),
     ({'model.constant_values': [0.05]}, 'model.constant_values', 'expected one value per'),
-    ({'observer.type': 'chen', 'observer.poles': ['-1', '-2']}, 'observer.type',
-     'a chen observer runs a linear model'),
+    ({'observer.type': 'kalman', 'observer.time_varying': True}, 'observer.time_varying',
+     'propagates its covariance with the linear model'),
 ])
 def test_a_bad_registered_model_is_refused_naming_the_parameter(registered, change, parameter,
                                                                 what):

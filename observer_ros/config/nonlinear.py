@@ -40,13 +40,10 @@ from typing import Any, Mapping, Optional
 
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.nonlinear.functions import function_model
-from observer_ros.core.nonlinear.linearize import (
-    linearize, LinearizedModel, nonlinear_model_of)
+from observer_ros.core.nonlinear.linearize import linearize, LinearizedModel
 from observer_ros.core.nonlinear.model import NonlinearModel
-from observer_ros.core.observers import observer_types
 
-__all__ = ['NONLINEAR_PARAMETERS', 'read_linearized_model', 'read_nonlinear_model',
-           'refuse_equations']
+__all__ = ['NONLINEAR_PARAMETERS', 'read_linearized_model', 'read_nonlinear_model']
 
 #: ``(name, value type, default, description)`` of the parameters of the equations; the
 #: names, angles and ``model.dt`` are the linear model's own parameters.
@@ -240,25 +237,3 @@ def _operating_point_error(e: ConfigError) -> ConfigError:
                  'operating_input': 'model.operating_point_inputs'}.get(e.parameter,
                                                                         'model.function')
     return ConfigError(parameter, e.reason)
-
-
-def refuse_equations(kind, model, parameter: str) -> None:
-    """
-    Refuse an observer type that cannot run the equations ``model`` carries.
-
-    ``kind``: the :class:`~observer_ros.core.observers.ObserverType` of ``observer.type``
-    (``parameter``); its capability ``equations`` says whether its estimator runs them.
-
-    Raises
-    ------
-    ConfigError
-        Naming ``parameter``: the model is written as equations and the type runs a linear
-        model only.
-
-    """
-    if nonlinear_model_of(model) is None or kind.capabilities.equations:
-        return
-    able = [other.name for other in observer_types() if other.capabilities.equations]
-    raise ConfigError(parameter, f'a {kind.name} observer runs a linear model and the model '
-                      f'is written as equations (model.dynamics); expected one of {able}, '
-                      f'or the linear model in model.A, model.B, model.C')

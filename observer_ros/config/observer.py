@@ -41,7 +41,6 @@ from typing import Iterator, Optional
 import numpy as np
 
 from observer_ros.config.model import Augmentation
-from observer_ros.config.nonlinear import refuse_equations
 from observer_ros.config.sections import (
     Binding, JointStatesSection, ModelSection, ObserverSection, Sections)
 from observer_ros.config.sources import measurement_sources, SourcesSetup
@@ -52,6 +51,7 @@ from observer_ros.core.errors import ConfigError, UnobservableError
 from observer_ros.core.estimators import Estimator
 from observer_ros.core.flat_matrices import vector_from_flat
 from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.nonlinear.linearize import nonlinear_model_of
 from observer_ros.core.observers import (
     disturbance_arguments, make_estimator, observer_type, ObserverType)
 from observer_ros.core.rules import ValueLimits
@@ -137,7 +137,6 @@ def observer_design(sections: Sections, augmentation: Augmentation) -> Optional[
     binding = ModelSection.binding() | section.binding()
     with binding.charged(binding['type']):
         kind = observer_type(section.type)
-    refuse_equations(kind, model, binding['type'])
     history_ns = seconds_to_ns(section.history, binding['history'])
     sources = measurement_sources(sections, model)
     given = _with_source_noise(section.arguments, sources, kind, binding)
@@ -364,7 +363,8 @@ class ObserverSetup:
     @property
     def checks_sources(self) -> bool:
         """Whether the stream checks rules of the sources (latency within the history...)."""
-        return self.sources is not None or self.keeps_history
+        return (self.sources is not None or self.keeps_history
+                or nonlinear_model_of(self.design.model) is not None)  # the type may refuse
 
     def check_stream(self) -> None:
         """
