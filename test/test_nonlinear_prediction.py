@@ -58,15 +58,20 @@ def _run(system, samples=200, seed=1):
     return stream, np.array([sample.estimate for sample in returned])
 
 
+@pytest.mark.parametrize('pinned', [{}, {'observer.initial_state': [0.2, -0.1]}])
 @pytest.mark.parametrize('kind', sorted(TYPES))
-def test_a_linear_model_as_equations_gives_the_linear_estimators_estimates(kind):
+def test_a_linear_model_as_equations_gives_the_linear_estimators_estimates(kind, pinned):
     linear_stream, linear = _run(validate_parameters({**LINEAR, 'observer.type': kind,
-                                                      **TYPES[kind]}))
+                                                      **TYPES[kind], **pinned}))
     stream, estimates = _run(validate_parameters({**EQUATIONS, 'observer.type': kind,
-                                                  **TYPES[kind]}))
+                                                  **TYPES[kind], **pinned}))
     assert type(linear_stream.estimator) is ConstantGainEstimator
     assert type(stream.estimator) is NonlinearPrediction
-    assert stream.estimator.covariance is None  # a constant gain carries none
+    # A Kalman filter's P is its design's at each interval; a placed gain carries none.
+    assert (stream.estimator.covariance is None) == (linear_stream.estimator.covariance is None)
+    if kind == 'kalman':
+        assert np.allclose(stream.estimator.covariance, linear_stream.estimator.covariance,
+                           rtol=1e-9, atol=0.0)
     assert linear.shape == estimates.shape == (200, 2)
     assert np.max(np.abs(estimates - linear)) <= 1e-9 * np.max(np.abs(linear))
 
@@ -129,3 +134,11 @@ def test_what_cannot_take_the_nonlinear_prediction_is_refused_naming_the_paramet
         validate_parameters({**PENDULUM, **change})
     assert caught.value.parameter == parameter, str(caught.value)
     assert what in caught.value.reason, caught.value.reason
+
+
+def test_a_source_whose_gain_cannot_be_designed_alone_is_refused_as_for_the_linear_model():
+    from test_nonlinear_config import SYSTEM
+    with pytest.raises(ConfigError) as caught:
+        validate_parameters({**SYSTEM, 'observer.type': 'kalman'})
+    assert caught.value.parameter == 'observer.sources'
+    assert "source 'wheels' (outputs ['wheel_left', 'wheel_right']) alone" in str(caught.value)

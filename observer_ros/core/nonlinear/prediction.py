@@ -50,6 +50,7 @@ import numpy as np
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.estimators.constant_gain import ConstantGainEstimator
 from observer_ros.core.estimators.intervals import IntervalCache
+from observer_ros.core.estimators.protocol import Prediction
 from observer_ros.core.nonlinear.filter import DEFAULT_MAX_STEP, NonlinearFilter
 from observer_ros.core.nonlinear.model import NonlinearModel
 
@@ -137,24 +138,38 @@ class NonlinearPrediction(NonlinearFilter):
         self.linear, self.c = linear, c
         self._gains: dict = {}
         self._interval = 0
+        self._last_step = None
 
     @property
     def covariance(self) -> Optional[np.ndarray]:
-        """None: a constant-gain observer carries no covariance."""
-        return None
+        """The covariance of the last step's design (a Kalman filter's ``P``), else None."""
+        step = self._last_step
+        return None if step is None else step.covariance
 
     @property
     def innovation_covariance(self) -> Optional[np.ndarray]:
-        """None."""
-        return None
+        """``S`` of the last step's design (a Kalman filter's), else None."""
+        step = self._last_step
+        return None if step is None else step.innovation_covariance
 
     @property
     def nis(self) -> Optional[float]:
-        """None."""
-        return None
+        """``v^T S^-1 v`` with the last step's ``S`` (a Kalman filter's), else None."""
+        s = self.innovation_covariance
+        if s is None or self._innovation.shape != (len(s),):
+            return None
+        return float(self._innovation @ np.linalg.solve(s, self._innovation))
 
-    def _gain(self, outputs: tuple, interval_ns: int) -> np.ndarray:
-        """Return ``M`` of ``outputs`` over ``interval_ns`` (cached per interval)."""
+    def several_sources_problem(self) -> Optional[str]:
+        """The linear estimator's answer: its gains are the ones run."""
+        return self.linear.several_sources_problem()
+
+    def subset_problem(self, outputs: tuple) -> Optional[str]:
+        """The linear estimator's answer (a subset whose gain cannot be designed)."""
+        return self.linear.subset_problem(outputs)
+
+    def _step(self, outputs: tuple, interval_ns: int):
+        """Return the step of ``outputs`` over ``interval_ns`` (cached per interval)."""
         cache = self._gains.get(outputs)
         if cache is None:
             design = self.linear.design
@@ -162,7 +177,7 @@ class NonlinearPrediction(NonlinearFilter):
                 design = design.for_outputs(outputs)
             cache = self._gains[outputs] = IntervalCache(
                 design.step, self.linear.intervals.size, self.linear.intervals.resolution_ns)
-        return _gain(cache.get(interval_ns), self.n_states)
+        return cache.get(interval_ns)
 
     def propagate(self, x: np.ndarray, p: np.ndarray, interval_ns: int,
                   u: np.ndarray) -> tuple:
@@ -188,13 +203,17 @@ class NonlinearPrediction(NonlinearFilter):
         if not np.isfinite(innovation).all():
             return None
         if self._stamp is None:  # the first sample
-            if self._pinned is not None:
-                return x.copy(), p, innovation, None, math.nan
             rows = self.c[list(outputs)]
+            if self._pinned is not None:  # as the type's design starts, on the innovation
+                design = self.linear.design
+                if len(outputs) != self.n_outputs:
+                    design = design.for_outputs(outputs)
+                start = design.initial_estimate(x, rows @ x + innovation)
+                return np.array(start, dtype=float), p, innovation, None, math.nan
             step = np.linalg.lstsq(rows, innovation, rcond=None)[0]
             return x + step, p, innovation, None, math.nan
-        gain = self._gain(outputs, self._interval)
-        return x + gain @ innovation, p, innovation, None, math.nan
+        step = self._last_step = self._step(outputs, self._interval)
+        return x + _gain(step, self.n_states) @ innovation, p, innovation, None, math.nan
 
     def advance_outputs(self, stamp_ns: int, y: np.ndarray, u: np.ndarray,
                         outputs: tuple) -> np.ndarray:
@@ -202,3 +221,26 @@ class NonlinearPrediction(NonlinearFilter):
         if self._stamp is None:
             self._interval = 0
         return super().advance_outputs(stamp_ns, y, u, outputs)
+
+    def prediction(self, estimate: np.ndarray, covariance: Optional[np.ndarray],
+                   interval_ns: int, u: np.ndarray) -> Prediction:
+        """Return ``x`` carried by ``f`` over ``interval_ns`` with ``u``; ``covariance`` as is."""
+        estimate = np.array(estimate, dtype=float)
+        if interval_ns <= 0:
+            return Prediction(0, estimate, covariance)
+        x = self.propagate(estimate, None, int(interval_ns), np.asarray(u, dtype=float))[0]
+        if not np.isfinite(x).all():
+            self.counters['nonfinite'] += 1
+            return Prediction(0, estimate, covariance)
+        if self.angles is not None:
+            self.angles.keep(x)
+        return Prediction(0, x, covariance)
+
+    def snapshot(self) -> tuple:
+        """Return the running state, for :meth:`restore`."""
+        return super().snapshot(), self._last_step
+
+    def restore(self, state: tuple) -> None:
+        """Return to a state taken by :meth:`snapshot`."""
+        super().restore(state[0])
+        self._last_step = state[1]
