@@ -161,11 +161,11 @@ class NonlinearPrediction(NonlinearFilter):
         return float(self._innovation @ np.linalg.solve(s, self._innovation))
 
     def several_sources_problem(self) -> Optional[str]:
-        """The linear estimator's answer: its gains are the ones run."""
+        """Return the linear estimator's answer: its gains are the ones run."""
         return self.linear.several_sources_problem()
 
     def subset_problem(self, outputs: tuple) -> Optional[str]:
-        """The linear estimator's answer (a subset whose gain cannot be designed)."""
+        """Return the linear estimator's answer (a subset whose gain cannot be designed)."""
         return self.linear.subset_problem(outputs)
 
     def _step(self, outputs: tuple, interval_ns: int):
