@@ -15,7 +15,7 @@
 """
 A model written as equations in a parameter file, through replay and play_bag.
 
-``config/diff_drive_ekf.yaml``: a differential-drive base's own equations, three sources
+``config/nonlinear/diff_drive_ekf.yaml``: a differential-drive base's own equations, three sources
 (``/joint_states``, ``/imu/data`` and a camera's ``PoseWithCovarianceStamped`` 100 ms late)
 each measured by the model's expressions of its outputs. A bag written here from the
 nonlinear plant (RK4 at 1 ms) goes through ``replay`` with the extended and the unscented
@@ -35,7 +35,7 @@ from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.nonlinear import ExtendedKalman, UnscentedKalman
 from ros_support import executor_with, ros_context, spin_until
 
-CONFIG = CONFIG_DIR / 'diff_drive_ekf.yaml'
+CONFIG = CONFIG_DIR / 'nonlinear' / 'diff_drive_ekf.yaml'
 TOPICS = ('/joint_states', '/imu/data', '/camera/pose', '/cmd_vel')
 START_NS = 1_700_000_000 * 10**9
 PERIOD_NS = 10_000_000
