@@ -19,7 +19,8 @@ A model written as equations in a parameter file, through replay and play_bag.
 (``/joint_states``, ``/imu/data`` and a camera's ``PoseWithCovarianceStamped`` 100 ms late)
 each measured by the model's expressions of its outputs. A bag written here from the
 nonlinear plant (RK4 at 1 ms) goes through ``replay`` with the extended and the unscented
-filter, and through the unchanged observer node fed by ``play_bag``.
+filter and with a steady-state Kalman filter designed at the operating point (the nonlinear
+prediction), and through the unchanged observer node fed by ``play_bag``.
 """
 
 import math
@@ -33,6 +34,7 @@ from conftest import CONFIG_DIR
 from observer_ros.bags.replay import replay_bag
 from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.nonlinear import ExtendedKalman, UnscentedKalman
+from observer_ros.core.nonlinear.prediction import NonlinearPrediction
 from ros_support import executor_with, ros_context, spin_until
 
 CONFIG = CONFIG_DIR / 'nonlinear' / 'diff_drive_ekf.yaml'
@@ -157,6 +159,23 @@ def test_a_bag_of_the_nonlinear_base_replays_with_the_late_camera(tmp_path, stor
     assert np.all(np.abs(error) < [0.02, 0.02, 0.02, 0.05, 0.05]), error
     # The heading went through +-pi: the camera's yaw wrapped, the estimate followed.
     assert truth[-1, 2] > math.pi and result.estimates[-1, 2] < 0.0
+
+
+def test_a_linear_type_replays_the_bag_with_the_nonlinear_prediction(tmp_path):
+    # The steady-state Kalman filter designed at the operating point, the camera updating
+    # (100 ms late), the wheels and the IMU predict-only: x_prior integrates f.
+    bag = tmp_path / 'base'
+    truth = write_base_bag(bag, samples=300)
+    config = tmp_path / 'kalman.yaml'
+    config.write_text(CONFIG.read_text().replace("type: 'extended_kalman'", "type: 'kalman'")
+                      .replace('        timeout: 0.1\n',
+                               '        timeout: 0.1\n        predict_only: true\n'))
+    result = replay_bag(bag, config, u_topic='/cmd_vel')
+    assert isinstance(result.system.make_stream().estimator, NonlinearPrediction)
+    assert result.counters['reruns'] >= 29 and result.counters.get('too_old', 0) == 0
+    error = result.estimates[-1] - truth[-1]
+    error[2] = math.remainder(error[2], 2 * math.pi)
+    assert np.all(np.abs(error) < 2e-3), error
 
 
 def test_the_live_node_fed_by_play_bag_equals_the_replay_of_what_it_was_given(tmp_path):
