@@ -38,6 +38,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE_NAME]),
         ('share/' + PACKAGE_NAME, ['package.xml']),
         ('share/' + PACKAGE_NAME + '/config', glob('config/*.yaml') + glob('config/*.xml')),
+        ('share/' + PACKAGE_NAME + '/config/nonlinear', glob('config/nonlinear/*.yaml')),
         ('share/' + PACKAGE_NAME + '/launch', glob('launch/*.launch.py')),
     ],
     # ROS 2 itself (rclpy, message packages) is deliberately not listed here: on a ROS

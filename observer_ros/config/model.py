@@ -44,6 +44,7 @@ from typing import Optional
 
 import numpy as np
 
+from observer_ros.config.nonlinear import read_linearized_model
 from observer_ros.config.sections import ModelSection
 from observer_ros.config.values import indices
 from observer_ros.core.angles import Angles, check_angles
@@ -94,6 +95,9 @@ class Augmentation:
         """
         Build the plant of ``section`` and augment it with its disturbances.
 
+        With ``model.dynamics`` the plant is the model of the equations linearized at its
+        operating point (:func:`~observer_ros.config.nonlinear.read_linearized_model`).
+
         Raises
         ------
         ConfigError
@@ -102,6 +106,14 @@ class Augmentation:
 
         """
         binding = section.binding()
+        equations = read_linearized_model(section)
+        if equations is not None:
+            if section.disturbances:
+                raise ConfigError(binding['disturbances'], 'a model written as equations '
+                                  '(model.dynamics) takes no disturbances; write their states '
+                                  'into the equations')
+            nonlinear = equations.nonlinear
+            return cls(equations, angles=Angles(nonlinear.angle_states, nonlinear.angle_outputs))
         if not section.A:
             raise ConfigError(binding['A'], 'missing: the model needs A, B and C')
         with binding.charged(binding['A']):

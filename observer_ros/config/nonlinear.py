@@ -39,9 +39,11 @@ named by its parameter (``model.dynamics: entry 3 (yaw): ...``).
 from typing import Any, Mapping, Optional
 
 from observer_ros.core.errors import ConfigError
+from observer_ros.core.nonlinear.functions import function_model
+from observer_ros.core.nonlinear.linearize import linearize, LinearizedModel
 from observer_ros.core.nonlinear.model import NonlinearModel
 
-__all__ = ['NONLINEAR_PARAMETERS', 'read_nonlinear_model']
+__all__ = ['NONLINEAR_PARAMETERS', 'read_linearized_model', 'read_nonlinear_model']
 
 #: ``(name, value type, default, description)`` of the parameters of the equations; the
 #: names, angles and ``model.dt`` are the linear model's own parameters.
@@ -57,7 +59,19 @@ NONLINEAR_PARAMETERS = (
      'the expressions use (a wheel radius, a mass).'),
     ('model.constant_values', 'double_array', [], 'With model.dynamics: the value of each of '
      'model.constant_names.'),
+    ('model.operating_point_states', 'double_array', [], 'With model.dynamics: the state x0 '
+     'where the equations are linearized exactly (the linear model the names, sources and '
+     'designs read), one value per name of model.state_names. Empty: zero.'),
+    ('model.operating_point_inputs', 'double_array', [], 'With model.dynamics: the input u0 '
+     'of the operating point, one value per name of model.input_names. Empty: zero.'),
+    ('model.function', 'string', '', 'Instead of model.dynamics and model.measurements: the '
+     'name of a model of Python functions registered in the entry point group '
+     'observer_ros.nonlinear_models (f, h and their Jacobians; made with the constants of '
+     'model.constant_names). Empty: none.'),
 )
+
+#: The linear model's own parameters, which a model written as equations replaces.
+LINEAR_PARAMETERS = ('model.A', 'model.B', 'model.C', 'model.D')
 
 #: The arguments of :class:`NonlinearModel` and the parameters that give them.
 PARAMETER_OF = {'states': 'model.state_names', 'inputs': 'model.input_names',
@@ -105,6 +119,9 @@ of model.state_names (2: ['a', 'b']), got 1
 
     """
     dynamics = _strings(params, 'model.dynamics')
+    function = params.get('model.function') or ''
+    if function:
+        return _function_model(params, function, dynamics)
     if not dynamics:
         return None
     states = _strings(params, 'model.state_names')
@@ -131,6 +148,30 @@ of model.state_names (2: ['a', 'b']), got 1
         raise _renamed(e, states, outputs) from None
 
 
+def _function_model(params: Mapping[str, Any], function: str, dynamics: list):
+    """Return the model of Python functions ``model.function`` names."""
+    for name in ('model.dynamics', 'model.measurements'):
+        if params.get(name):
+            raise ConfigError(name, f'model.function ({function!r}) gives the model; expected '
+                              f'it empty')
+    if not isinstance(function, str):
+        raise ConfigError('model.function', f'expected a name, got {function!r}')
+    constant_names = _strings(params, 'model.constant_names')
+    constant_values = list(params.get('model.constant_values') or [])
+    if len(constant_values) != len(constant_names):
+        raise ConfigError('model.constant_values', f'expected one value per name of '
+                          f'model.constant_names ({len(constant_names)}: {constant_names}), '
+                          f'got {len(constant_values)}')
+    try:
+        return function_model(
+            function, dict(zip(constant_names, constant_values)),
+            _strings(params, 'model.state_names'), _strings(params, 'model.output_names'),
+            _strings(params, 'model.input_names'), params.get('model.dt', 0.0),
+            _strings(params, 'model.angle_states'), _strings(params, 'model.angle_outputs'))
+    except ConfigError as e:
+        raise ConfigError(PARAMETER_OF.get(e.parameter, 'model.function'), e.reason) from None
+
+
 def _renamed(error: ConfigError, states: list, outputs: list) -> ConfigError:
     """Return ``error`` named by its parameter (``dynamics.yaw`` -> ``model.dynamics``)."""
     kind, _, which = error.parameter.partition('.')
@@ -142,3 +183,57 @@ def _renamed(error: ConfigError, states: list, outputs: list) -> ConfigError:
     if kind == 'constants' and which:
         return ConfigError('model.constant_values', f'{which}: {error.reason}')
     return ConfigError(PARAMETER_OF.get(kind, error.parameter), error.reason)
+
+
+def read_linearized_model(section) -> Optional[LinearizedModel]:
+    """
+    Return the model of ``model.dynamics`` linearized at its operating point; None without.
+
+    ``section``: the :class:`~observer_ros.config.sections.ModelSection` (its fields bound to
+    the parameters of :data:`NONLINEAR_PARAMETERS` and the names).
+
+    The one conversion of a model written as equations in a configuration: the
+    :class:`~observer_ros.core.nonlinear.linearize.LinearizedModel` is the configuration's
+    model (its ``A``, ``B``, ``C``, ``D`` the exact Jacobians at
+    ``model.operating_point_states`` and ``model.operating_point_inputs``) and carries the
+    equations to the filters that run them.
+
+    Raises
+    ------
+    ConfigError
+        As :func:`read_nonlinear_model`; ``model.A`` (or ``B``, ``C``, ``D``) given as well;
+        an operating point of the wrong size, or where a Jacobian is not finite.
+
+    """
+    params = {parameter: getattr(section, field)
+              for field, parameter in section.bindings().items()}
+    model = read_nonlinear_model(params)
+    if model is None:
+        for name in ('model.measurements', 'model.constant_names', 'model.constant_values',
+                     'model.operating_point_states', 'model.operating_point_inputs'):
+            if params.get(name):
+                raise ConfigError(name, 'given without model.dynamics (or model.function); '
+                                  'write the dynamics there or leave it empty')
+        return None
+    for name in LINEAR_PARAMETERS:
+        if params.get(name):
+            raise ConfigError(name, 'a model written as equations (model.dynamics) is '
+                              'linearized at model.operating_point_states; expected it empty')
+    if not model.n_outputs:
+        raise ConfigError('model.measurements', 'expected at least one output: names in '
+                          'model.output_names and their expressions here')
+    try:
+        return linearize(model, params.get('model.operating_point_states'),
+                         params.get('model.operating_point_inputs'))
+    except ValueError as e:  # a model of functions that gave the wrong shapes
+        if isinstance(e, ConfigError):
+            raise _operating_point_error(e) from None
+        raise ConfigError('model.function', f'{model.name!r}: {e}') from None
+
+
+def _operating_point_error(e: ConfigError) -> ConfigError:
+    """Return an error of :func:`linearize` named by its parameter."""
+    parameter = {'operating_state': 'model.operating_point_states',
+                 'operating_input': 'model.operating_point_inputs'}.get(e.parameter,
+                                                                        'model.function')
+    return ConfigError(parameter, e.reason)

@@ -54,6 +54,7 @@ from observer_ros.core.errors import ConfigError, UnobservableError
 from observer_ros.core.estimators import Estimator
 from observer_ros.core.flat_matrices import vector_from_flat
 from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.nonlinear.linearize import nonlinear_model_of
 from observer_ros.core.observers import (
     disturbance_arguments, make_estimator, observer_type, ObserverType)
 from observer_ros.core.rules import ValueLimits
@@ -368,7 +369,8 @@ class ObserverSetup:
     @property
     def checks_sources(self) -> bool:
         """Whether the stream checks rules of the sources (latency within the history...)."""
-        return self.sources is not None or self.keeps_history
+        return (self.sources is not None or self.keeps_history
+                or nonlinear_model_of(self.design.model) is not None)  # the type may refuse
 
     def check_stream(self) -> None:
         """

@@ -27,6 +27,7 @@ import json
 
 from observer_ros.config.node_specs import (
     combined_nodes, node_spec, own_nodes, short_names, topic_nodes)
+from observer_ros.config.nonlinear import NONLINEAR_PARAMETERS
 from observer_ros.core.arguments import (
     Argument, array as _array, BOOL, DOUBLE, ENTRY_LIMIT, INTEGER, matrix_text as _matrix,
     number_text, SEED_MAX, STRING, STRING_ARRAY)
@@ -198,7 +199,7 @@ MODEL = (
             'of model.disturbances, in order.', ALL_NODES),
     _spec('model.disturbance_names', STRING_ARRAY, [], 'One name per disturbance (default '
           'd1..dk); its states are <name> and, for ramps and sinusoids, <name>_rate.'),
-)
+) + tuple(_spec(*parameter) for parameter in NONLINEAR_PARAMETERS)
 
 OBSERVER_STREAM = (
     _spec('observer.type', STRING, observer_types()[0].name,

@@ -68,6 +68,13 @@ class ModelSection(Section):
     disturbance_matrix: list = bound('model.disturbance_matrix')
     disturbance_frequencies: list = bound('model.disturbance_frequencies')
     disturbance_names: list = bound('model.disturbance_names')
+    dynamics: list = bound('model.dynamics')  # the equations: observer_ros.config.nonlinear
+    measurements: list = bound('model.measurements')
+    constant_names: list = bound('model.constant_names')
+    constant_values: list = bound('model.constant_values')
+    operating_point_states: list = bound('model.operating_point_states')
+    operating_point_inputs: list = bound('model.operating_point_inputs')
+    function: str = bound('model.function')
 
 
 @dataclass(frozen=True)

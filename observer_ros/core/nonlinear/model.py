@@ -269,6 +269,25 @@ class NonlinearModel:
         """Return SymPy's expressions and symbols: ``(f, h, x, u)``."""
         return list(self._f), list(self._h), self._x, self._u
 
+    def jacobians_at(self, x, u) -> tuple:
+        """
+        Return ``(A, B, C, D)``: ``df/dx``, ``df/du``, ``dh/dx``, ``dh/du`` at ``(x, u)``.
+
+        SymPy's exact derivatives, generated on first use and called with the model's exact
+        binary parameters; NaN outside a function's domain.
+        """
+        n, m, p = self.n_states, self.n_inputs, self.n_outputs
+        if getattr(self, '_at', None) is None:
+            sp, variables = self._sp, tuple(self._x) + tuple(self._u)
+            rows = [sp.diff(e, v) for e in self._f + self._h for v in variables]
+            self._at = self._lambdify(rows) if rows else None
+        with np.errstate(all='ignore'):
+            values = self._at(x, u, self.parameters) if self._at is not None else []
+        values = np.array([math.nan] * ((n + p) * (n + m)) if values is None else values,
+                          dtype=float).reshape(n + p, n + m)
+        return (values[:n, :n].copy(), values[:n, n:].copy(), values[n:, :n].copy(),
+                values[n:, n:].copy())
+
     # --- numbers (what the filters call) ---------------------------------------------------
 
     def f(self, x, u) -> np.ndarray:

@@ -19,12 +19,14 @@ The extended and unscented Kalman filters as observer types of the registry.
 :func:`nonlinear_type` makes the :class:`~observer_ros.core.observers.ObserverType` of a
 filter class; the packages ``observer_ros.core.observers.extended_kalman`` and
 ``unscented_kalman`` name them (their entry points in the group
-``observer_ros.observer_types``). Until a configuration carries a model written as
-equations, the type runs on the configuration's linear model written as equations
-(:func:`~observer_ros.core.nonlinear.model.linear_as_expressions`): the design is the
-steady-state Kalman design of ``Q`` and ``R`` (its ``P`` for the report), the estimator the
-filter of the equations, which then equals the time-varying Kalman filter to the
-integrator's accuracy.
+``observer_ros.observer_types``). With a model written as equations (``model.dynamics``,
+:mod:`observer_ros.config.nonlinear`) the configuration's model is their linearization at
+the operating point (:class:`~observer_ros.core.nonlinear.linearize.LinearizedModel`) and
+the filter runs the equations it carries; otherwise the type runs the configuration's
+linear model written as equations
+(:func:`~observer_ros.core.nonlinear.model.linear_as_expressions`), and then equals the
+time-varying Kalman filter to the integrator's accuracy. The design is the steady-state
+Kalman design of ``Q`` and ``R`` on the (linearized) model, its ``P`` for the report.
 """
 
 from dataclasses import replace
@@ -33,6 +35,7 @@ from observer_ros.core.arguments import Argument, DOUBLE, STRING
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.nonlinear.ekf import PREDICTIONS
 from observer_ros.core.nonlinear.filter import DEFAULT_MAX_STEP
+from observer_ros.core.nonlinear.linearize import nonlinear_model_of
 from observer_ros.core.nonlinear.model import linear_as_expressions
 from observer_ros.core.observers import Capabilities, ObserverType, ReportItem
 from observer_ros.core.observers.kalman import (
@@ -68,7 +71,7 @@ KEYWORDS = {'ukf_alpha': 'alpha', 'ukf_beta': 'beta', 'ukf_kappa': 'kappa',
 #: What the filters can do.
 CAPABILITIES = Capabilities(covariance=True, angles=True, needs_every_output=False,
                             linear_realization=False, several_sources=True,
-                            needs_observable=False)
+                            needs_observable=False, equations=True)
 
 
 def _vet(model, given):
@@ -79,6 +82,11 @@ def _vet(model, given):
         raise ConfigError(name, 'an extended or unscented Kalman filter takes its gain '
                           'from process_noise and measurement_noise; leave gain and poles '
                           'empty')
+
+
+def equations_of(model):
+    """Return the equations ``model`` carries (``model.dynamics``), else its linear ones."""
+    return nonlinear_model_of(model) or linear_as_expressions(model)
 
 
 def _report(design):
@@ -138,14 +146,15 @@ def nonlinear_type(name: str, summary: str, filter_class, extra=(),
             missing = 'process_noise' if not q else 'measurement_noise'
             raise ConfigError(missing, 'a Kalman filter needs both noise covariances')
         parse_initial_covariance(values['initial_covariance'], model.n_states)
-        linear_as_expressions(model)  # D = 0, checked now
+        if nonlinear_model_of(model) is None:
+            linear_as_expressions(model)  # D = 0, checked now
         if check is not None:
             check(model, values)
         return replace(design_kalman(model, q, r), kind=name)
 
     def estimator(design, values, initial_state=None, interval_resolution_ns=0):
         options = {KEYWORDS[argument.name]: values[argument.name] for argument in extra}
-        return filter_class(linear_as_expressions(design.model), design.process_noise,
+        return filter_class(equations_of(design.model), design.process_noise,
                             design.measurement_noise, values['initial_covariance'] or None,
                             initial_state, max_step=values['max_step'], **options)
 

@@ -95,6 +95,13 @@ class Capabilities:
         modes that do not decay (a Kalman filter, for which a detectable pair suffices);
         the one observability rule (:func:`~observer_ros.core.analysis.observability_problem`)
         is asked either way.
+    equations : bool
+        Its estimator runs a model written as equations (``model.dynamics``) itself: the
+        configuration's model is then their linearization
+        (:class:`~observer_ros.core.nonlinear.linearize.LinearizedModel`) and the estimator
+        takes the equations it carries. A type without it is designed on the linearization
+        and its gain runs with the nonlinear prediction (:func:`make_estimator`), when its
+        step allows it.
     disturbance_arguments : tuple of str
         Its arguments that only apply to a model with ``model.disturbances`` (refused
         without), which the type itself consumes from the disturbance transform it is
@@ -114,6 +121,7 @@ class Capabilities:
     needs_observable: bool = True
     angles: bool = False
     disturbance_arguments: tuple = ()
+    equations: bool = False
 
 
 def _no_report(design: ObserverDesign) -> tuple:
@@ -360,7 +368,10 @@ def make_estimator(design: ObserverDesign, initial_state=None, interval_resoluti
     -------
     Estimator
         The type's runtime estimator: an :class:`~observer_ros.core.estimators.Estimator`,
-        or a :class:`TimeVaryingKalman` for ``kalman`` with ``time_varying=True``.
+        or a :class:`TimeVaryingKalman` for ``kalman`` with ``time_varying=True``. A design
+        on a model written as equations by a type without the capability ``equations``:
+        its gain run with the nonlinear prediction
+        (:class:`~observer_ros.core.nonlinear.prediction.NonlinearPrediction`).
 
     Raises
     ------
@@ -385,7 +396,12 @@ def make_estimator(design: ObserverDesign, initial_state=None, interval_resoluti
         values = kind.values(arguments)
     elif arguments:
         raise TypeError('make_estimator: give the checked values or the arguments, not both')
-    return kind.estimator(design, values, initial_state, interval_resolution_ns)
+    estimator = kind.estimator(design, values, initial_state, interval_resolution_ns)
+    equations = getattr(design.model, 'nonlinear', None)  # a model written as equations
+    if equations is None or kind.capabilities.equations:
+        return estimator
+    from observer_ros.core.nonlinear.prediction import NonlinearPrediction  # lazy: SymPy's
+    return NonlinearPrediction(estimator, equations, values, initial_state)
 
 
 def rows(matrix) -> list:

@@ -80,7 +80,8 @@ class EventStream(SourceUpdates, SteadyPath, RecordedReplay):
         ``out_of_range``, ``future_stamp``) and ``estimates``; ``estimate_reset`` counts
         estimates beyond their limit (not returned; the estimator restarted); with a history
         the engine's ``reruns``, ``rerun_rows``, ``too_old`` and ``corrected`` (the
-        corrected estimates returned, besides ``estimates``).
+        corrected estimates returned, besides ``estimates``); ``nonfinite``: the
+        estimator's steps dropped as not finite (a nonlinear filter's own count).
     events : list of (str, str)
         ``(kind, text)`` of notable events since the caller last cleared it.
 
@@ -144,6 +145,9 @@ class EventStream(SourceUpdates, SteadyPath, RecordedReplay):
     def counters(self) -> Counter:
         """Return the counts of the class description, up to date."""
         counters = self.engine.counters
+        dropped = getattr(self.estimator, 'counters', {}).get('nonfinite')
+        if dropped:  # the estimator's steps dropped as not finite (a nonlinear filter)
+            counters['nonfinite'] = dropped
         if self._steady:
             counters['measurements'] += self._steady
             counters['estimates'] += self._steady
