@@ -34,6 +34,7 @@ from observer_ros.core.angles import wrap_angles
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.flat_matrices import vector_from_flat
 from observer_ros.core.model import StateSpaceModel
+from observer_ros.core.nonlinear.linearize import linearize as exact_linearization
 from observer_ros.core.nonlinear.model import NonlinearModel
 from observer_ros.core.nonlinear.simulation import NonlinearPlantSimulator
 from observer_ros.core.units import NANOSECONDS, seconds_to_ns
@@ -49,7 +50,7 @@ EQUILIBRIUM_RTOL = 1e-9
 def linearize(model: NonlinearModel, operating_state, operating_input=(),
               equilibrium: bool = True) -> StateSpaceModel:
     """
-    Return the linear model of the equations at ``(x0, u0)``: ``A, B, C, D`` exactly.
+    Return the linear model of the equations at an equilibrium ``(x0, u0)``, exactly.
 
     ``A = df/dx``, ``B = df/du``, ``C = dh/dx``, ``D = dh/du`` at the operating point, from
     SymPy's derivatives of the equations evaluated in double precision (no finite
@@ -77,8 +78,9 @@ def linearize(model: NonlinearModel, operating_state, operating_input=(),
     ConfigError
         Naming ``operating_state`` or ``operating_input`` (wrong length, not finite), or
         ``operating_input`` when the point is not an equilibrium (with ``f(x0, u0)`` and the
-        input that holds the point where there is one input per moving state), or ``model``
-        when a derivative is not finite there.
+        input that holds the point where there is one input per moving state), or
+        ``operating_state`` when a derivative is not finite there
+        (:func:`~observer_ros.core.nonlinear.linearize.linearize`, the one linearization).
 
     Examples
     --------
@@ -97,7 +99,6 @@ def linearize(model: NonlinearModel, operating_state, operating_input=(),
 f(x0, u0) = [0.0, -13.87...]; ...
 
     """
-    import sympy as sp
     x0 = vector_from_flat('operating_state', np.ravel(operating_state), model.n_states)
     u0 = vector_from_flat('operating_input', np.ravel(operating_input), model.n_inputs)
     if equilibrium:
@@ -107,34 +108,7 @@ f(x0, u0) = [0.0, -13.87...]; ...
             raise ConfigError('operating_input', f'(x0, u0) is not an equilibrium: f(x0, u0) '
                               f'= {drift.tolist()}; expected 0 (give the input that holds '
                               f'x0, or a state where one does)')
-    f, h, x, u = model.symbolic()
-    constants = sp.symbols(f'k0:{len(model.parameters)}', real=True) if len(
-        model.parameters) else ()
-    blocks = [sp.Matrix(f).jacobian(x), sp.Matrix(f).jacobian(u) if u else None,
-              sp.Matrix(h).jacobian(x) if h else None,
-              sp.Matrix(h).jacobian(u) if h and u else None]
-    shapes = [(model.n_states, model.n_states), (model.n_states, model.n_inputs),
-              (model.n_outputs, model.n_states), (model.n_outputs, model.n_inputs)]
-    matrices = []
-    for block, shape in zip(blocks, shapes):
-        if block is None:
-            matrices.append(np.zeros(shape))
-            continue
-        function = sp.lambdify([list(x), list(u), list(constants)], block.tolist(),
-                               modules='math')
-        try:
-            values = np.array(function(x0.tolist(), u0.tolist(), model.parameters.tolist()),
-                              dtype=float).reshape(shape)
-        except (ValueError, OverflowError, ZeroDivisionError):
-            values = np.full(shape, np.nan)
-        if not np.isfinite(values).all():
-            raise ConfigError('model', f'a derivative of the equations is not finite at the '
-                              f'operating point (x0 = {x0.tolist()}, u0 = {u0.tolist()})')
-        matrices.append(values)
-    a, b, c, d = matrices
-    return StateSpaceModel.from_matrices(
-        a, b, c, d, dt=model.dt, state_names=model.state_names,
-        input_names=model.input_names or None, output_names=model.output_names)
+    return exact_linearization(model, x0, u0)
 
 
 def arm_joint(mass: float = 1.0, length: float = 0.5, gravity: float = 9.81,
