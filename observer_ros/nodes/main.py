@@ -28,15 +28,14 @@ Importing it sets ``OPENBLAS_NUM_THREADS=1`` unless it is set already (before nu
 see the guarantees page.
 """
 
+from functools import lru_cache
+from importlib import import_module
 import os
 
 # One BLAS thread unless the user says otherwise, set before numpy loads: a node's linear
 # algebra is on small matrices, where OpenBLAS's threads only queue behind the node's own
 # work on a busy machine (scipy's expm 3.7 ms against 0.12 ms at a load of 8 on two cores).
 os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
-
-from functools import lru_cache  # noqa: E402 (after the BLAS setting)
-from importlib import import_module  # noqa: E402
 
 from observer_ros.config.node_specs import node_spec, NodeSpec  # noqa: E402
 from observer_ros.ros.lifecycle import ManagedNode  # noqa: E402
