@@ -531,6 +531,11 @@ class ObserverWiring:
         return self.observer_part.sources
 
     @property
+    def source_drops(self) -> dict:
+        """The observer part's drops per measurement source: ``{name: Counter}``."""
+        return self.observer_part.source_drops
+
+    @property
     def node_counters(self) -> Counter:
         """The observer part's own counts (malformed, out of range, predictions...)."""
         return self.observer_part.node_counters

@@ -199,6 +199,7 @@ class ObserverControllerWiring:
     stream = ObserverWiring.stream
     codecs = ObserverWiring.codecs
     sources = ObserverWiring.sources
+    source_drops = ObserverWiring.source_drops
     node_counters = ObserverWiring.node_counters
     publishers_ = ObserverWiring.publishers_
 
