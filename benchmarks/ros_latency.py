@@ -26,9 +26,16 @@ closed loop, the probe sends the command ``u`` stamped like ``y`` after the esti
 after the same idle gap, so the observer has taken that ``u`` before its next ``y``. The
 observer-controller (the same observer and a state feedback, ``controller.input: command``,
 its estimate topics remapped away) answers each ``y`` with ``u_cmd``.
+
+Beside the round trips, the CPU time each node's process spent per round (every thread,
+``/proc/<pid>/task/*/schedstat``, over the timed rounds: in place, cold, as a loop meets
+it) and, in this process, the thread CPU time of one ``y`` (and its ``u``) through the
+node's subscription callbacks, back to back (a tight loop, hot caches) and with 1 ms of
+other work between messages (cold, without DDS).
 """
 
 import os
+from pathlib import Path
 import signal
 import struct
 import subprocess
@@ -76,6 +83,13 @@ GOAL_P50, GOAL_P99 = 1.05, 1.2
 
 #: Stamps step by this from ping to ping of one node (a steady 100 Hz for the observer).
 STEP_NS = 10_000_000
+
+#: Goals of the CPU time per message in place against the raw relay's (issue 29).
+GOAL_CPU = {'x_hat': 2.0, 'u_cmd': 2.5}
+
+#: In-process CPU per message: node kind -> the parameters added to the seed's.
+IN_PROCESS = {'x_hat': ('observer', ()),
+              'u_cmd': ('observer_controller', TARGETS['u_cmd'][2][-4:])}
 
 STAMP = struct.Struct('<iI')
 
@@ -154,6 +168,21 @@ class Probe(Node):
         return float('nan') if arrived is None else (arrived - sent) / 1e3
 
 
+def process_cpu_ns(pid: int) -> int:
+    """CPU time (ns) every thread of process ``pid`` ran so far; 0 without ``/proc``."""
+    total = 0
+    try:
+        tasks = list(Path(f'/proc/{pid}/task').iterdir())
+    except OSError:
+        return 0
+    for task in tasks:
+        try:
+            total += int((task / 'schedstat').read_text().split()[0])
+        except (OSError, ValueError, IndexError):
+            pass  # a thread that ended meanwhile
+    return total
+
+
 def wait_until_ready(probe: Probe, executor, processes, name: str) -> dict:
     """Spin until every endpoint is matched and every node answered; return the last stamps."""
     deadline = time.monotonic() + 30.0
@@ -176,8 +205,13 @@ def wait_until_ready(probe: Probe, executor, processes, name: str) -> dict:
     return stamps
 
 
-def measure(executor_name: str, rounds: int, warm_up: int) -> dict:
-    """Round trips (microseconds) per answer topic, nodes spinning on ``executor_name``."""
+def measure(executor_name: str, rounds: int, warm_up: int) -> tuple:
+    """
+    Round trips (microseconds) and process CPU per round (microseconds) per answer topic.
+
+    The nodes spin on ``executor_name``; the CPU time is each node's process over the timed
+    rounds (its ``y``, its ``u`` for the observer, and what it does idle meanwhile).
+    """
     processes = [start(kind, executor_name, *remap) for _, kind, remap in TARGETS.values()]
     context = rclpy.Context()
     rclpy.init(context=context)
@@ -188,14 +222,19 @@ def measure(executor_name: str, rounds: int, warm_up: int) -> dict:
         stamps = wait_until_ready(probe, executor, processes, executor_name)
         latencies = {target: [] for target in TARGETS}
         targets = list(TARGETS)
+        cpu_before = {}
         for k in range(rounds + warm_up):
+            if k == warm_up:
+                cpu_before = {t: process_cpu_ns(p.pid) for t, p in zip(TARGETS, processes)}
             shift = k % len(targets)
             for target in targets[shift:] + targets[:shift]:
                 stamps[target] += STEP_NS
                 value = probe.ping(executor, target, stamps[target])
                 if k >= warm_up:
                     latencies[target].append(value)
-        return {target: np.array(values) for target, values in latencies.items()}
+        cpu = {t: (process_cpu_ns(p.pid) - cpu_before.get(t, 0)) / rounds / 1e3
+               for t, p in zip(TARGETS, processes)}
+        return {target: np.array(values) for target, values in latencies.items()}, cpu
     finally:
         executor.remove_node(probe)
         probe.destroy_node()
@@ -203,6 +242,45 @@ def measure(executor_name: str, rounds: int, warm_up: int) -> dict:
         rclpy.try_shutdown(context=context)
         for process in processes:
             stop(process)
+
+
+def callback_cpu(target: str, count: int, gap: float) -> float:
+    """
+    Thread CPU time (us) of one message through a node's callbacks, in this process.
+
+    The node of ``target`` (:data:`IN_PROCESS`) is built with the seed's parameters and its
+    ``y`` subscription's callback called with serialized bytes, the observer's ``u`` after
+    it as the probe sends it; ``gap`` seconds of other work (touching 4 MB) between two
+    messages make it cold, 0 is a tight loop. Nothing subscribes its topics.
+    """
+    from benchmarks.ros_runner import NODES
+    kind, extra = IN_PROCESS[target]
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = NODES[kind](context=context, cli_args=['--ros-args', '--params-file', str(CONFIG),
+                                                  *extra])
+    try:
+        by_topic = {s.topic_name.rsplit('/', 1)[-1]: s.callback for s in node.subscriptions}
+        on_y, on_u = by_topic['y'], by_topic.get('u') if target == 'x_hat' else None
+        other = np.zeros(1 << 19)
+        spent = []
+        for k in range(count):
+            stamp = (k + 1) * STEP_NS
+            value = 0.0 if target == 'u_cmd' else 0.1 * (k % 7)
+            y, u = Probe.request('y1', stamp, value), Probe.request('u1', stamp, 0.0)
+            if gap:
+                until = time.perf_counter() + gap
+                while time.perf_counter() < until:
+                    other += 1.0
+            started = time.thread_time_ns()
+            on_y(y)
+            if on_u is not None:
+                on_u(u)
+            spent.append(time.thread_time_ns() - started)
+        return float(np.median(spent[count // 10:])) / 1e3
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
 
 
 def percentile(values: np.ndarray, q: float) -> float:
@@ -218,7 +296,9 @@ def run(smoke: bool, figures) -> Section:
                       f'observer (y to x_hat) and observer-controller (y to u_cmd) p50 within '
                       f'{GOAL_P50}x and p99 within {GOAL_P99}x those of the raw relay (the '
                       'floor of rclpy transport), same executor and QoS')
-    results = {name: measure(name, rounds, warm_up) for name in EXECUTORS}
+    measured = {name: measure(name, rounds, warm_up) for name in EXECUTORS}
+    results = {name: latencies for name, (latencies, _) in measured.items()}
+    cpu = {name: process for name, (_, process) in measured.items()}
     rows, ratios = [], {}
     for name, values in results.items():
         raw = values['raw_relay']
@@ -243,15 +323,39 @@ def run(smoke: bool, figures) -> Section:
                 f'**{EXECUTORS[0]}** unless given `--executor`. The raw relay republishes the '
                 'bytes it receives (no message objects): what is left is rclpy and DDS. The '
                 'observer also reads and writes CDR bytes, and on top decodes `y`, runs the '
-                'estimator and publishes `x_hat` and `innovation`. The observer-controller '
-                'decodes `y`, runs the estimator and the feedback law and publishes `u_cmd` '
-                'first, then `x_hat` and `innovation`: its row is the latency from a '
+                'estimator and publishes `x_hat` (`innovation` only while subscribed: not '
+                'here). The observer-controller decodes `y`, runs the estimator and the '
+                'feedback law and publishes `u_cmd` (its estimate topics only while '
+                'subscribed): its row is the latency from a '
                 'measurement to the command, which the two nodes pay twice through DDS. The '
                 'plain relay builds message objects both ways as an ordinary rclpy node does. '
                 'The MultiThreadedExecutor is not offered (see '
                 '`observer_ros.ros.executors.EXECUTORS`).', '')
-    section.met = all(p50 <= GOAL_P50 and p99 <= GOAL_P99
-                      for p50, p99 in ratios[EXECUTORS[0]].values())
+    count = 50 if smoke else 2000
+    in_process = {target: (callback_cpu(target, count, 0.0), callback_cpu(target, count, GAP))
+                  for target in MEASURED}
+    cpu_rows = []
+    for name, process in cpu.items():
+        raw = process['raw_relay']
+        cpu_rows.append([name, *(f'{process[t]:.0f}' for t in TARGETS),
+                         *(f'{process[t] / raw:.2f}' for t in MEASURED)])
+    section.add(f"CPU time per round of each node's process, in place (cold: {GAP * 1e3:g} ms "
+                'idle before every ping, the other nodes pinged in between): every thread of '
+                "the process over the timed rounds, divided by the rounds (the observer's "
+                f'includes its `u`). Goals against the raw relay: observer at most '
+                f'{GOAL_CPU["x_hat"]}x, controller at most {GOAL_CPU["u_cmd"]}x. Microseconds.',
+                '')
+    section.table(['executor', *(LABELS[t] for t in TARGETS),
+                   *(f'{LABELS[t]} / raw' for t in MEASURED)], cpu_rows)
+    section.add(f"In this process, the thread CPU time of one message through the node's "
+                f'subscription callbacks (median of {count}; nothing subscribed to its topics): '
+                + '; '.join(f'{LABELS[t]} {hot:.0f} us in a tight loop, {cold:.0f} us with '
+                            f'{GAP * 1e3:g} ms of other work between messages'
+                            for t, (hot, cold) in in_process.items()) + '.', '')
+    process = cpu[EXECUTORS[0]]
+    section.met = (all(p50 <= GOAL_P50 and p99 <= GOAL_P99
+                       for p50, p99 in ratios[EXECUTORS[0]].values())
+                   and all(process[t] <= GOAL_CPU[t] * process['raw_relay'] for t in MEASURED))
     plt = pyplot()
     figure, axis = plt.subplots(figsize=(8, 3.5))
     data, labels = [], []

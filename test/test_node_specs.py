@@ -22,6 +22,9 @@ the parts each node builds, the console scripts, the managed twins and the index
 """
 
 from dataclasses import replace
+import os
+import subprocess
+import sys
 
 import pytest
 
@@ -119,3 +122,21 @@ def test_the_docs_index_lists_every_executable_of_the_specs():
     index = (REPOSITORY / 'doc' / 'nodes' / 'index.md').read_text(encoding='utf-8')
     table = [line for line in index.splitlines() if line.startswith('| [`')]
     assert table == node_specs.index_rows()
+
+
+@pytest.mark.parametrize('given', [None, '3'])
+def test_the_executables_main_sets_one_blas_thread_before_numpy_loads(given):
+    # A node's algebra is on small matrices: OpenBLAS's threads only queue behind it on a
+    # busy machine. The executables' one main sets the default before numpy loads; a value
+    # the user set stays.
+    environment = {key: value for key, value in os.environ.items()
+                   if key != 'OPENBLAS_NUM_THREADS'}
+    if given is not None:
+        environment['OPENBLAS_NUM_THREADS'] = given
+    script = ('import sys; import observer_ros.nodes.main; from threadpoolctl import '
+              'threadpool_info; print([pool["num_threads"] for pool in threadpool_info() '
+              'if pool["internal_api"] == "openblas"][:1] or [0])')
+    result = subprocess.run([sys.executable, '-c', script], env=environment, check=True,
+                            capture_output=True, text=True, timeout=120)
+    expected = 1 if given is None else min(int(given), os.cpu_count())
+    assert result.stdout.strip() in (f'[{expected}]', '[0]'), result.stdout

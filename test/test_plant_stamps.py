@@ -68,3 +68,31 @@ def test_a_stall_leaves_the_real_time_plant_s_stamps_on_its_clock():
     assert samples == [1000 * MS, 1010 * MS, 1020 * MS, 1620 * MS, 1630 * MS]
     assert elapsed == pytest.approx(0.63, abs=1e-9)
     assert plant.counters['skipped_periods'] == 59
+
+
+@pytest.mark.parametrize('feedthrough, order', [
+    (None, ['y', 'u', 'x_true']),  # y first: the observer waits for it
+    ([0.5], ['u', 'y', 'x_true'])])  # D u: the input in effect arrives before y
+def test_a_sample_publishes_y_first_and_u_before_y_only_with_a_feedthrough(feedthrough, order):
+    # Before, a sample published x_true, u, then y: about 60 us of the loop's critical path
+    # ahead of the measurement the observer answers.
+    config = CONFIG_DIR / 'seed003_full_order.yaml'
+    extra = [] if feedthrough is None else [Parameter('model.D', value=feedthrough)]
+    with ros_context('--params-file', str(config)) as context:
+        plant = PlantSimulatorNode(context=context, parameter_overrides=[
+            Parameter('plant.wait_for_command', value=False), *extra])
+        try:
+            part = plant.plant_part
+            part.start_timer.cancel()
+            published = []
+            for topic, publisher in part.publishers_.items():
+                publisher.publish = lambda data, topic=topic: published.append(topic)
+            part.x_true_listened = True  # as when something subscribes x_true
+            part.publish_sample()
+            assert published == order
+            part.x_true_listened = False  # nobody subscribes x_true: not published
+            published.clear()
+            part.publish_sample()
+            assert published == order[:2]
+        finally:
+            plant.destroy_node()

@@ -406,7 +406,9 @@ def test_a_managed_node_knows_what_it_made_and_destroys_exactly_that_by_name():
                     'subscription reference', 'publisher /diagnostics',
                     'timer _on_watchdog', 'service ~/reset'} <= made, sorted(made)
             assert 'publisher made_before' not in made
-            assert {'stream', 'feedback_part'} <= node.made_attributes
+            # The node's state lives in its parts: those are what configure set.
+            parts = {'observer_part', 'feedback_part', 'health', 'diagnostics'}
+            assert node.made_attributes == parts
             assert 'system' not in node.made_attributes  # there before configure
             assert node.trigger_cleanup() == TransitionCallbackReturn.SUCCESS
             assert node.made is None and not hasattr(node, 'stream')

@@ -506,7 +506,7 @@ PLANT_WARNING = r'^no u_cmd for ([0-9.]+) s \(plant\.command_timeout = 0\.5 s, s
 
 def record_decisions(plant) -> list:
     """
-    Record the plant's choice at each sample as it makes it.
+    Record the plant part's choice at each sample as it makes it.
 
     ``(steady ns, steady ns of the latest command's arrival, a command applied,
     cpu_wait_ns())``.
@@ -529,7 +529,7 @@ def test_plant_applies_the_safe_input_after_the_command_timeout_and_resumes(plan
     bench = plant_factory(executor, plant__command_timeout=COMMAND_TIMEOUT,
                           plant__safe_input=SAFE_INPUT, topics__u_cmd__limit=10.0)
     bench.be_the_loop()
-    decisions = record_decisions(bench.plant)
+    decisions = record_decisions(bench.plant.plant_part)
     spin = bench.executor
     assert spin_until(spin, lambda: len(bench.samples['u']) >= 5, 10.0)
     # Before the first command: the safe input. A command beyond topics.u_cmd.limit: dropped.

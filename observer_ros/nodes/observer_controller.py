@@ -16,7 +16,7 @@
 ``observer_controller``: the observer and the state feedback in one node and one callback.
 
 Each ``y`` (with the applied ``u`` when the plant reports one) goes through the observer's
-event stream (:class:`~observer_ros.nodes.observer.ObserverWiring`) and each estimate it
+observer part (:class:`~observer_ros.nodes.observer.ObserverPart`) and each estimate it
 gives through the node's feedback part (:class:`~observer_ros.nodes.state_feedback.
 FeedbackPart`) in the same callback: ``u_cmd`` is published first, then ``x_hat``,
 ``joint_states_hat``, the innovation, the covariances and NIS, as the observer publishes
@@ -45,13 +45,13 @@ published on ``/diagnostics`` with the configuration.
 """
 
 from collections import Counter
-import time
+from typing import Optional
 
 import numpy as np
 
 from observer_ros.config import CONTROLLER
 from observer_ros.core.rules import within_limit
-from observer_ros.nodes.observer import ObserverWiring
+from observer_ros.nodes.observer import ObserverPart, ObserverWiring
 from observer_ros.nodes.state_feedback import FeedbackPart
 from observer_ros.ros.diagnostics import monitor
 from observer_ros.ros.parameters import ConfiguredNode
@@ -64,21 +64,93 @@ def _poles_text(poles) -> str:
     return '[' + ', '.join(texts) + ']'
 
 
-class ObserverControllerWiring(ObserverWiring):
+class CommandFirst:
     """
-    The controller's wiring: the observer's stream and a feedback part in one callback.
+    The observer-controller's hooks in its observer part: each estimate's command first.
 
-    :class:`ObserverControllerNode` builds it in its constructor, the managed variant
-    (made from its spec by :func:`observer_ros.nodes.main.managed_class`) on ``configure``.
+    ``measured`` keeps a measurement for the integral action and, with
+    ``controller.input: command`` and a feedthrough, gives the stream the command in effect
+    before the measurement; ``estimated`` publishes the command of each estimate before its
+    ``x_hat`` (the plant waits for it); ``published`` gives the commands to the stream as the
+    inputs of the next intervals (``controller.input: command`` without a feedthrough), once
+    the estimates are out, so the stream prepares the next step with them.
     """
+
+    def __init__(self, feedback_part: FeedbackPart, commands_as_input: bool) -> None:
+        self.feedback = feedback_part
+        self.commands_as_input = commands_as_input
+        self.observer = None  # the observer part, set once it is made
+        #: With commands as inputs, ``add_input`` prepares the step: not after publishing.
+        self.prepares_after_publish = not commands_as_input
+        self._no_feedthrough = True
+
+    def attach(self, observer) -> None:
+        """Work with the observer part ``observer`` (built): its stream says about D."""
+        self.observer = observer
+        self._no_feedthrough = observer.stream.estimator.feedthrough is None
+        self.prepares_after_publish = not (self.commands_as_input and self._no_feedthrough)
+
+    def measured(self, stamp: int, y) -> None:
+        """Keep a measurement for the integrator and give the input ``D u`` needs, if any."""
+        feedback = self.feedback
+        if feedback.law.integral is not None:
+            values = np.asarray(y, dtype=float)
+            if within_limit(values, feedback.feedback_limits['y']):
+                feedback.integrate_measurement(stamp, values)
+        if self.commands_as_input and not self._no_feedthrough:
+            # D u needs the input in effect at this stamp: the command sent before, which
+            # the plant applies from this sample on; given before the measurement.
+            self.observer.run(self.observer.stream.add_input, stamp, feedback.sent)
+
+    def estimated(self, samples) -> Optional[list]:
+        """Publish the command of each estimate (u_cmd first); return what was in effect."""
+        feedback = self.feedback
+        if not (self.commands_as_input and self._no_feedthrough):
+            for sample in samples:
+                feedback.command_for(sample.stamp_ns, sample.estimate)
+            return None
+        applied = []  # (stamp, the command in effect from that sample on)
+        for sample in samples:
+            applied.append((sample.stamp_ns, feedback.sent))
+            feedback.command_for(sample.stamp_ns, sample.estimate)  # the new feedback.sent
+        return applied
+
+    def published(self, applied: Optional[list]) -> None:
+        """Give the commands sent to the stream as the inputs of the next intervals."""
+        if not applied:
+            return
+        observer = self.observer
+        for stamp, command in applied:
+            released = observer.stream.add_input(stamp, command)
+            if released:
+                observer.publish(released)
+
+
+class ObserverControllerWiring:
+    """
+    The controller's wiring: an observer part and a feedback part side by side.
+
+    The observer part's hooks (:class:`CommandFirst`) turn each estimate into ``u_cmd``
+    before ``x_hat`` is published. :class:`ObserverControllerNode` builds it in its
+    constructor, the managed variant (made from its spec by
+    :func:`observer_ros.nodes.main.managed_class`) on ``configure``.
+    """
+
+    #: The attributes :meth:`build` sets (a managed node drops them on cleanup).
+    PARTS = ('observer_part', 'feedback_part', 'health', 'diagnostics')
 
     def build(self, system) -> None:
-        """Make the feedback part (``u_cmd`` first), then the observer's stream and topics."""
-        self.feedback_part = FeedbackPart(self, stale_input='estimate')
-        self.feedback_part.vet(system)
-        self.commands_as_input = system.sections.controller.input_source == 'command'
-        self.feedback_part.build(system)
-        ObserverWiring.build(self, system)
+        """Make the feedback part (``u_cmd`` first), then the observer part and the health."""
+        self.vet_system(system)
+        self.feedback_part = feedback = FeedbackPart(self, stale_input='estimate')
+        commands_as_input = system.sections.controller.input_source == 'command'
+        feedback.build(system)
+        hooks = CommandFirst(feedback, commands_as_input)
+        self.observer_part = part = ObserverPart(self, hooks, primary=())
+        part.build(system, inputs=system.model.n_inputs > 0 and not commands_as_input)
+        hooks.attach(part)
+        self.health = part.health
+        self.diagnostics = part.health.publisher
         self.health.watch('reference', monitor(system, 'reference', 0.0, required=False,
                                                rated=False))
         self._log_loop(system)
@@ -98,57 +170,38 @@ class ObserverControllerWiring(ObserverWiring):
 
     def subscribes_input(self, system) -> bool:
         """Whether ``u`` is subscribed: not with ``controller.input: command``."""
-        return system.model.n_inputs > 0 and not self.commands_as_input
+        return (system.model.n_inputs > 0
+                and system.sections.controller.input_source != 'command')
 
     def vet_system(self, system) -> None:
         """Refuse what either node would refuse."""
-        FeedbackPart(self).vet(system)
-        ObserverWiring.vet_system(self, system)
+        (self.__dict__.get('feedback_part') or FeedbackPart(self)).vet(system)
+        (self.__dict__.get('observer_part') or ObserverPart(self)).vet(system)
 
     def apply_system(self, previous, system) -> None:
         """Switch the observer's gains (the estimate kept) and the law's."""
-        ObserverWiring.apply_system(self, previous, system)
+        self.observer_part.apply(previous, system)
         self.feedback_part.apply(previous, system)
 
     def counters(self) -> Counter:
         """Stream, observer and command counts together."""
-        return self.stream.counters + self.node_counters + self.feedback_part.command_counters
-
-    def _on_measurement(self, message) -> None:
-        stamp, y = self._decode('y', message)
-        if y is None:
-            return
-        feedback = self.feedback_part
-        if feedback.law.integral is not None:
-            values = np.asarray(y, dtype=float)
-            if within_limit(values, feedback.feedback_limits['y']):
-                feedback.integrate_measurement(stamp, values)
-        if self.commands_as_input and self.stream.estimator.feedthrough is not None:
-            # D u needs the input in effect at this stamp: the command sent before, which
-            # the plant applies from this sample on; given before the measurement.
-            self._run(self.stream.add_input, stamp, feedback.sent)
-        self._run(self.stream.add_measurement, stamp, y, self._clock_for(stamp),
-                  time.monotonic_ns())
-
-    def _publish(self, samples) -> None:
-        feedback = self.feedback_part
-        applied = []  # (stamp, the command in effect from that sample on)
-        for sample in samples:  # u_cmd first: the plant waits for it
-            applied.append((sample.stamp_ns, feedback.sent))
-            feedback.command_for(sample.stamp_ns, sample.estimate)  # the new feedback.sent
-        ObserverWiring._publish(self, samples)
-        if self.commands_as_input and self.stream.estimator.feedthrough is None:
-            # The input of the interval after each estimate, for the next prediction: given
-            # once the estimate is out, so the stream prepares the next step with it.
-            for stamp, command in applied:
-                released = self.stream.add_input(stamp, command)
-                if released:
-                    self._publish(released)
+        return self.observer_part.counters() + self.feedback_part.command_counters
 
     def pause(self) -> None:
         """Deactivation: the estimator restarts; one safe command, then silence."""
-        ObserverWiring.pause(self)
+        self.observer_part.pause()
         self.feedback_part.pause()
+
+    def resume(self) -> None:
+        """Activation: predictions (``observer.publish_rate``) start again."""
+        self.observer_part.resume()
+
+    stream = ObserverWiring.stream
+    codecs = ObserverWiring.codecs
+    sources = ObserverWiring.sources
+    source_drops = ObserverWiring.source_drops
+    node_counters = ObserverWiring.node_counters
+    publishers_ = ObserverWiring.publishers_
 
 
 class ObserverControllerNode(ObserverControllerWiring, ConfiguredNode):

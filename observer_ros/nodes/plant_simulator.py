@@ -16,7 +16,9 @@
 ``plant_simulator``: the model simulated exactly, publishing ``y``, ``u`` and ``x_true``.
 
 At sample ``k`` (time ``t_k``) it publishes ``y`` and ``x_true`` of the current state and the
-input ``u`` it applies from ``t_k`` to ``t_(k+1)``, all stamped ``t_k``; the applied input is
+input ``u`` it applies from ``t_k`` to ``t_(k+1)``, all stamped ``t_k``, ``y`` first (then
+``u``, then ``x_true`` while something subscribes it; with a feedthrough ``D``, ``u`` before
+``y``); the applied input is
 the latest command received on ``u_cmd``, saturated to ``plant.input_limits``. So in a closed
 loop the command computed from sample ``k-1`` acts over the interval after sample ``k``.
 
@@ -73,6 +75,7 @@ from rclpy.task import Future
 from rosgraph_msgs.msg import Clock as ClockMessage
 
 from observer_ros.config import PLANT
+from observer_ros.core.model import model_feedthrough
 from observer_ros.core.rules import within_limit
 from observer_ros.core.simulation import PlantSimulator
 from observer_ros.core.units import NANOSECONDS, seconds_to_ns
@@ -85,12 +88,25 @@ from observer_ros.ros.qos import publisher_qos
 START_POLL = 0.02
 
 
-class PlantSimulatorNode(ConfiguredNode):
-    """The plant simulator node. ``finished`` completes after ``plant.samples`` samples."""
+class PlantPart:
+    """
+    The plant part of a node: the simulated model, its samples and the commands it applies.
 
-    def __init__(self, node_name: str = 'plant_simulator', **kwargs) -> None:
-        super().__init__(node_name, PLANT, **kwargs)
-        system = self.system
+    Held (as ``plant_part``) by :class:`PlantSimulatorNode`. Its verbs: :meth:`build`
+    (the simulator, publishers, ``u_cmd``, the start and lockstep timers, through its node);
+    per message :meth:`on_command`; per sample :meth:`publish_sample`. A sample publishes
+    ``y`` first (what an observer waits for), then ``u`` and ``x_true``; with a feedthrough
+    ``D`` it publishes ``u`` before ``y``, stamped alike, so an observer that takes ``D u``
+    off ``y`` has the input in effect when ``y`` arrives. ``x_true`` is published only while
+    a subscription is matched (the publisher's matched events); its counts and the health
+    come after the sample is out. ``finished`` completes after ``plant.samples`` samples.
+    """
+
+    def __init__(self, node) -> None:
+        self.node = node
+
+    def build(self, system) -> None:
+        """Make the simulator, the publishers, ``u_cmd`` and the start (and lockstep) timers."""
         plant = system.plant
         self.simulator = PlantSimulator(
             system.model, plant.initial_state, plant.process_noise, plant.measurement_noise,
@@ -115,10 +131,17 @@ class PlantSimulatorNode(ConfiguredNode):
         topics = ('y', 'x_true') if self.autonomous else ('y', 'u', 'x_true')
         self.codecs = {topic: VectorCodec.for_topic(system, topic)
                        for topic in topics + ('u_cmd',)}
-        self.publishers_ = {topic: self.topic_publisher(self.codecs[topic].message_class, topic)
-                            for topic in topics}
-        self.command_subscription = None if self.autonomous else self.topic_subscription(
-            self.codecs['u_cmd'].message_class, 'u_cmd', self._on_command)
+        #: Whether x_true has a subscriber (kept by the publisher's matched events).
+        self.x_true_listened = None
+        self.publishers_ = {topic: self.node.topic_publisher(
+            self.codecs[topic].message_class, topic,
+            matched=self._on_x_true_matched if topic == 'x_true' else None)
+            for topic in topics}
+        self.limits = {topic: system.topics[topic].limit for topic in topics}
+        #: With a feedthrough D, u goes out before y (stamped alike): D u needs it there.
+        self.u_first = model_feedthrough(system.model) is not None
+        self.command_subscription = None if self.autonomous else self.node.topic_subscription(
+            self.codecs['u_cmd'].message_class, 'u_cmd', self.on_command)
         self.command = None
         self.command_stamp = None
         #: When the latest command arrived: ``time.monotonic_ns()`` (the steady clock) in real
@@ -135,38 +158,45 @@ class PlantSimulatorNode(ConfiguredNode):
         self.counters: Counter = Counter()
         self.finished = Future()
         self.health = NodeHealth(
-            self, {'u_cmd': monitor(system, 'u_cmd', plant.command_timeout,
-                                    required=self.wait_for_command, minimum_only=True)},
+            self.node, {'u_cmd': monitor(system, 'u_cmd', plant.command_timeout,
+                                         required=self.wait_for_command, minimum_only=True)},
             lambda: self.counters)
-        self.diagnostics = self.health.publisher
         self.steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.peers_seen_ns = None
         self.waiting_since_ns = self.steady.now().nanoseconds
         if self.lockstep:
-            self.clock_publisher = self.create_publisher(ClockMessage, '/clock', publisher_qos())
+            self.clock_publisher = self.node.create_publisher(ClockMessage, '/clock',
+                                                              publisher_qos())
             self.awaiting = None
-            self.timeout_timer = self.create_timer(self.lockstep_timeout, self._on_timeout,
-                                                   clock=self.steady, autostart=False)
-        self.start_timer = self.create_timer(START_POLL, self._try_start, clock=self.steady)
+            self.timeout_timer = self.node.create_timer(
+                self.lockstep_timeout, self._on_timeout, clock=self.steady, autostart=False)
+        self.start_timer = self.node.create_timer(START_POLL, self._try_start,
+                                                  clock=self.steady)
 
-    def _on_command(self, message) -> None:
+    def _on_x_true_matched(self, status) -> None:
+        """Note a subscription on x_true matched or gone (published only while one is)."""
+        self.x_true_listened = status.current_count > 0
+
+    def on_command(self, message) -> None:
+        """Take a ``u_cmd`` (dropped and counted when malformed or out of range)."""
         try:
             stamp, command = self.codecs['u_cmd'].decode(message)
         except MalformedMessage as e:
             self.counters['malformed'] += 1
-            self.warn_once('malformed u_cmd', f'dropped a malformed command: {e}')
+            self.node.warn_once('malformed u_cmd', f'dropped a malformed command: {e}')
             return
-        self.health.tick('u_cmd', stamp)
         if not within_limit(command, self.command_limit):
+            self.health.tick('u_cmd', stamp)
             self.counters['out_of_range'] += 1
-            self.warn_once('u_cmd out of range', f'dropped u_cmd {command.tolist()}: a value '
-                           f'exceeds topics.u_cmd.limit = {self.command_limit:g} in magnitude')
+            self.node.warn_once('u_cmd out of range', f'dropped u_cmd {command.tolist()}: a '
+                                f'value exceeds topics.u_cmd.limit = {self.command_limit:g} '
+                                f'in magnitude')
             return
         self.command, self.command_stamp = command, stamp
         self.command_arrival_ns = self.stamp_ns if self.lockstep else time.monotonic_ns()
         if self.command_lost:
             self.command_lost = False
-            self.get_logger().info('u_cmd is back: applying the commands again')
+            self.node.get_logger().info('u_cmd is back: applying the commands again')
         if self.lockstep and self.awaiting is not None and stamp in (self.awaiting, None):
             # An unstamped command (Float64MultiArray) ending the wait is the one computed
             # from the awaited sample: counted as such in commands_on_time.
@@ -174,6 +204,7 @@ class PlantSimulatorNode(ConfiguredNode):
             self.awaiting = None
             self.timeout_timer.cancel()
             self._advance()
+        self.health.tick('u_cmd', stamp)  # after the next sample is out
 
     def _command_in_effect(self) -> tuple:
         """Return ``(input, is a command)``: the latest command, or the safe input."""
@@ -188,7 +219,7 @@ class PlantSimulatorNode(ConfiguredNode):
         if not self.command_lost:
             self.command_lost = True
             self.counters['command_timeouts'] += 1
-            self.get_logger().warning(
+            self.node.get_logger().warning(
                 f'no u_cmd for {age / NANOSECONDS:.3f} s (plant.command_timeout = '
                 f'{self.command_timeout_ns / NANOSECONDS:g} s, '
                 f'{"simulated" if self.lockstep else "steady clock"}): applying '
@@ -196,37 +227,49 @@ class PlantSimulatorNode(ConfiguredNode):
         self.counters['safe_input_samples'] += 1
         return self.safe_input, False
 
-    def _publish_sample(self) -> None:
+    def publish_sample(self) -> None:
         """
         Publish sample ``index`` at ``stamp_ns`` and apply the command in effect.
 
-        ``y = C x + D u`` with ``u`` the input applied from this sample on (published on
-        ``u`` before ``y``, with the same stamp); ``y = C x`` without a feedthrough.
+        ``y = C x + D u`` with ``u`` the input applied from this sample on, stamped like
+        ``y``: ``y`` goes out first (the observer waits for it), then ``u``, then
+        ``x_true`` (while subscribed); with a feedthrough ``u`` goes out before ``y``.
+        ``y = C x`` without a feedthrough. The counts come after.
         """
         command, commanded = self._command_in_effect()
         self.holding = self.hold_without_command and not commanded
-        y = self.simulator.measure(command)
-        self._publish_within('x_true', self.simulator.x)
-        applied = self.simulator.saturate(command)
+        simulator = self.simulator
+        y = simulator.measure(command)
+        applied = simulator.saturate(command)
+        if self.u_first:
+            self._publish_within('u', applied)
+            self._publish_within('y', y)
+        else:
+            self._publish_within('y', y)
+            if not self.autonomous:
+                self._publish_within('u', applied)
+        listened = self.x_true_listened
+        if listened is None:  # no matched event yet: ask once
+            listened = self.x_true_listened = (
+                self.publishers_['x_true'].get_subscription_count() > 0)
+        if listened:
+            self._publish_within('x_true', simulator.x)
+        self.applied = applied
         if commanded:
             if 'first_command_sample' not in self.counters:
                 self.counters['first_command_sample'] = self.index
             if self.command_stamp == self.previous_stamp_ns:
                 self.counters['commands_on_time'] += 1
-        self.applied = applied
-        if not self.autonomous:
-            self._publish_within('u', applied)
-        self._publish_within('y', y)
         self.counters['samples'] += 1
 
     def _publish_within(self, topic: str, vector) -> None:
         """Publish ``vector`` on ``topic`` unless it is not finite or beyond its limit."""
-        limit = self.system.topics[topic].limit
+        limit = self.limits[topic]
         if not within_limit(np.asarray(vector, dtype=float), limit):
             self.counters['out_of_range'] += 1
-            self.warn_once(f'{topic} out of range', f'{topic} not published: a value is not '
-                           f'finite or beyond topics.{topic}.limit = {limit:g} (the simulated '
-                           f'plant diverges)')
+            self.node.warn_once(f'{topic} out of range', f'{topic} not published: a value is '
+                                f'not finite or beyond topics.{topic}.limit = {limit:g} (the '
+                                f'simulated plant diverges)')
             return
         self.publishers_[topic].publish(self.codecs[topic].encode(self.stamp_ns, vector))
 
@@ -234,7 +277,7 @@ class PlantSimulatorNode(ConfiguredNode):
         if self.samples and self.index >= self.samples:
             if not self.finished.done():
                 counters = self.counters
-                self.get_logger().info(
+                self.node.get_logger().info(
                     f'simulated {self.index} samples; {counters["commands_on_time"]} applied '
                     f'the command computed from the previous sample (first command at sample '
                     f'{counters.get("first_command_sample", "none")})')
@@ -246,7 +289,7 @@ class PlantSimulatorNode(ConfiguredNode):
         if self._finish_if_done():
             self.tick_timer.cancel()
             return
-        elapsed = self.get_clock().now().nanoseconds - self.start_ns
+        elapsed = self.node.get_clock().now().nanoseconds - self.start_ns
         period_index = max(0, elapsed) // self.period_ns
         periods = period_index - self.period_index
         if periods <= 0:
@@ -258,7 +301,7 @@ class PlantSimulatorNode(ConfiguredNode):
         self.period_index = period_index
         self.previous_stamp_ns = self.stamp_ns
         self.stamp_ns = self.start_ns + period_index * self.period_ns
-        self._publish_sample()
+        self.publish_sample()
         self.index += 1
 
     def _simulate(self, periods: int) -> None:
@@ -294,7 +337,7 @@ class PlantSimulatorNode(ConfiguredNode):
             if not self.start_timeout or waited < self.start_timeout:
                 return
             self.counters['started_without_peers'] += 1
-            self.get_logger().warning(
+            self.node.get_logger().warning(
                 f'starting without {" and ".join(missing)}: plant.start_timeout = '
                 f'{self.start_timeout:g} s passed')
         elif self._settling(now):
@@ -304,8 +347,8 @@ class PlantSimulatorNode(ConfiguredNode):
         if self.lockstep:
             self._lockstep_sample()
         else:
-            self.start_ns = self.get_clock().now().nanoseconds
-            self.tick_timer = self.create_timer(self.period, self._tick)
+            self.start_ns = self.node.get_clock().now().nanoseconds
+            self.tick_timer = self.node.create_timer(self.period, self._tick)
             self._tick()
 
     def _settling(self, now_ns: int) -> bool:
@@ -322,7 +365,7 @@ class PlantSimulatorNode(ConfiguredNode):
         clock = ClockMessage()
         ns_to_stamp(clock.clock, self.stamp_ns)
         self.clock_publisher.publish(clock)
-        self._publish_sample()
+        self.publish_sample()
         self.awaiting = self.stamp_ns
         self.timeout_timer.reset()
 
@@ -336,12 +379,44 @@ class PlantSimulatorNode(ConfiguredNode):
         if self.awaiting is None:
             return
         self.counters['lockstep_timeouts'] += 1
-        self.get_logger().warning(
+        self.node.get_logger().warning(
             f'lockstep: no command for sample {self.index} (stamp {self.awaiting} ns) within '
             f'plant.lockstep_timeout = {self.lockstep_timeout} s; advancing with the input in '
             f'effect')
         self.awaiting = None
         self._advance()
+
+
+class PlantSimulatorNode(ConfiguredNode):
+    """
+    The plant simulator node: its plant part, running from its construction.
+
+    ``finished`` completes after ``plant.samples`` samples; the part's state is reachable
+    from the node (``node.counters``, ``node.simulator``, ``node.index``...).
+    """
+
+    def __init__(self, node_name: str = 'plant_simulator', **kwargs) -> None:
+        super().__init__(node_name, PLANT, **kwargs)
+        self.plant_part = PlantPart(self)
+        self.plant_part.build(self.system)
+        self.health = self.plant_part.health
+        self.diagnostics = self.health.publisher
+
+    def missing_peers(self) -> list:
+        """Return what the plant still waits for before its first sample (empty: nothing)."""
+        return self.plant_part.missing_peers()
+
+
+def _forward(name: str) -> property:
+    """Return a property of the node reading the plant part's attribute ``name``."""
+    return property(lambda node: getattr(node.plant_part, name),
+                    doc=f"The plant part's ``{name}``.")
+
+
+for _name in ('simulator', 'counters', 'command', 'command_stamp', 'command_subscription',
+              'publishers_', 'codecs', 'finished', 'samples', 'index', 'stamp_ns', 'started',
+              'start_ns', 'period_ns', 'lockstep', 'applied'):
+    setattr(PlantSimulatorNode, _name, _forward(_name))
 
 
 def plant_done(node: PlantSimulatorNode):

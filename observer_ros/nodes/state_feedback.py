@@ -289,6 +289,9 @@ class StateFeedbackWiring:
     (made from its spec by :func:`observer_ros.nodes.main.managed_class`) on ``configure``.
     """
 
+    #: The attributes :meth:`build` sets (a managed node drops them on cleanup).
+    PARTS = ('feedback_part', 'health', 'diagnostics', 'measurement_subscription')
+
     def build(self, system) -> None:
         """Make the feedback part (law, publisher, reference, watchdog), ``x_hat`` and health."""
         self.feedback_part = part = FeedbackPart(self)

@@ -29,7 +29,8 @@ node's wiring (the same ``build`` the plain node runs in its constructor) is mad
   feedback node publishes its safe command once there), then disables the output.
 - ``cleanup`` destroys, by name, every publisher, subscription, timer, service and client
   that ``configure`` made (:attr:`ManagedNode.made`, recorded as they are created) and drops
-  every attribute it set, so a later ``configure`` starts from
+  the parts the wiring made (its ``PARTS``: the observer part, the feedback part, the
+  health), where all the node's running state lives, so a later ``configure`` starts from
   the parameters as they are then; ``shutdown`` does the same from any state.
 
 While unconfigured every parameter may be set (types are checked, configure validates);
@@ -60,9 +61,10 @@ class ManagedNode(SchemaParameters, LifecycleNode):
     A lifecycle node configured from the shared schema by its ``configure`` transition.
 
     Subclasses put the plain node's wiring before this class in their bases: ``build``
-    (make the estimator or law, publishers, subscriptions and timers for a validated
-    ``system``), ``vet_system``, ``apply_system`` and optionally ``pause`` (stop timers and
-    send what deactivation owes) and ``resume``.
+    (make the parts, which make the estimator or law, publishers, subscriptions and timers
+    for a validated ``system``), ``vet_system``, ``apply_system`` and optionally ``pause``
+    (stop timers and send what deactivation owes) and ``resume``; ``PARTS`` names the
+    attributes ``build`` sets.
     """
 
     def __init__(self, node_name: str, role: str, **kwargs) -> None:
@@ -76,7 +78,7 @@ class ManagedNode(SchemaParameters, LifecycleNode):
         #: What the running configure made: ``{name: entity}`` (``publisher x_hat``,
         #: ``timer _on_watchdog``), None outside configure and once released.
         self.made: Optional[dict] = None
-        #: The attributes configure added, by name (recorded while it runs).
+        #: The parts configure made (the wiring's ``PARTS`` it set), by attribute name.
         self.made_attributes: Optional[set] = None
         self._making = False
         self._refuse_unknown_transitions()
@@ -108,6 +110,9 @@ class ManagedNode(SchemaParameters, LifecycleNode):
                 return response
 
         service.callback = refusing
+
+    #: The attributes the wiring's ``build`` sets: its parts (dropped on cleanup).
+    PARTS: tuple = ()
 
     # --- the wiring's hooks (the plain nodes' mixins override build, pause and resume) --
 
@@ -161,6 +166,7 @@ class ManagedNode(SchemaParameters, LifecycleNode):
             raise
         finally:
             self._making = False  # on_error releases what was made too
+            self.made_attributes = {name for name in self.PARTS if name in vars(self)}
         if error is not None:
             self._release()
             self.configure_error = str(error)
@@ -211,12 +217,6 @@ class ManagedNode(SchemaParameters, LifecycleNode):
 
     # --- what configure made ---------------------------------------------------------------
 
-    def __setattr__(self, name: str, value) -> None:
-        """Set the attribute; while configuring, record a new one's name (cleanup drops it)."""
-        if self.__dict__.get('_making') and name not in self.__dict__:
-            self.made_attributes.add(name)
-        object.__setattr__(self, name, value)
-
     def _register(self, kind: str, name: str, entity):
         """Record an entity configure made under ``<kind> <name>`` and return it."""
         if self.__dict__.get('_making'):
@@ -259,8 +259,8 @@ class ManagedNode(SchemaParameters, LifecycleNode):
                               super().create_client(srv_type, srv_name, *args, **kwargs))
 
     def _release(self) -> None:
-        """Destroy, by name, the entities configure made and drop the attributes it set."""
-        made, attributes = self.made, self.made_attributes
+        """Destroy, by name, the entities configure made and drop the parts it set."""
+        made = self.made
         self.made = self.made_attributes = None
         self.system = self._pending = None
         self.active = False
@@ -269,5 +269,5 @@ class ManagedNode(SchemaParameters, LifecycleNode):
                 self.destroy_lifecycle_publisher(entity)
             else:
                 getattr(self, DESTROYERS[name.split()[0]])(entity)
-        for name in attributes or ():
+        for name in self.PARTS:
             vars(self).pop(name, None)

@@ -22,9 +22,11 @@ change with the same function: a rejected change returns the reason and leaves e
 as it was; an accepted one is applied after it is set.
 """
 
+from types import SimpleNamespace
 from typing import Callable, Optional
 
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.event_handler import PublisherEventCallbacks, UnsupportedEventTypeError
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
@@ -290,10 +292,27 @@ class SchemaParameters:
     def apply_system(self, previous: Configuration, system: Configuration) -> None:
         """Switch to a newly accepted configuration (called after the parameters are set)."""
 
-    def topic_publisher(self, message_class: type, topic: str) -> Publisher:
-        """Create a publisher with :func:`publisher_qos` (``qos_overrides`` apply)."""
-        return self.output_publisher(message_class, topic, publisher_qos(),
-                                     qos_overriding_options=QOS_OVERRIDES)
+    def topic_publisher(self, message_class: type, topic: str,
+                        matched: Optional[Callable] = None) -> Publisher:
+        """
+        Create a publisher with :func:`publisher_qos` (``qos_overrides`` apply).
+
+        ``matched(status)`` is called (by the executor, off the message path) whenever a
+        subscription matches or goes, ``status.current_count`` the subscriptions matched
+        now; where the middleware has no matched events it is called once with a count of 1
+        (the topic is then always published).
+        """
+        if matched is None:
+            return self.output_publisher(message_class, topic, publisher_qos(),
+                                         qos_overriding_options=QOS_OVERRIDES)
+        try:
+            return self.output_publisher(
+                message_class, topic, publisher_qos(), qos_overriding_options=QOS_OVERRIDES,
+                event_callbacks=PublisherEventCallbacks(matched=matched))
+        except UnsupportedEventTypeError:
+            matched(SimpleNamespace(current_count=1))
+            return self.output_publisher(message_class, topic, publisher_qos(),
+                                         qos_overriding_options=QOS_OVERRIDES)
 
     def output_publisher(self, *args, **kwargs) -> Publisher:
         """Create a publisher of the node's output (a managed node's is a lifecycle one)."""
