@@ -304,10 +304,10 @@ def test_the_example_file_holds_the_arm_joint_and_its_equilibrium():
         x, u = rng.normal(0.0, 2.0, 2), rng.normal(0.0, 5.0, 1)
         np.testing.assert_allclose(model.f(x, u), arm.f(x, u), rtol=1e-15, atol=1e-15)
     assert model.angle_states == (0,) and model.angle_outputs == (0,)
-    assert params['model.operating_state'] == [Q0, 0.0]
-    assert params['model.operating_input'] == [TAU0]
+    assert params['model.operating_point_states'] == [Q0, 0.0]
+    assert params['model.operating_point_inputs'] == [TAU0]
     assert params['plant.initial_state'][0] - Q0 == pytest.approx(math.radians(30.0))
-    linearize(model, params['model.operating_state'], params['model.operating_input'])
+    linearize(model, params['model.operating_point_states'], params['model.operating_point_inputs'])
 
 
 # --- the EKF's prediction with one Jacobian a step --------------------------------------

@@ -40,12 +40,15 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from observer_ros.core.angles import wrap_angles
 from observer_ros.core.errors import ConfigError
 
 
 class StateFeedbackLaw:
     """
     ``u = -K x_hat + N r``, clipped to the input limits.
+
+    At an operating point ``(x0, u0)`` of equations: ``u = u0 - K (x_hat - x0) + N r``.
 
     Parameters
     ----------
@@ -55,6 +58,11 @@ class StateFeedbackLaw:
         ``N``; None: references are ignored.
     input_limits : array_like or None, shape (m, 2)
         ``[min, max]`` per input; None: no clipping.
+    operating_point : tuple or None
+        ``(x0, u0, angles)`` of a gain designed on equations linearized at ``(x0, u0)``
+        (``model.operating_point_states``, ``model.operating_point_inputs``): the law acts on
+        the deviation ``x_hat - x0``, its entries at the indices ``angles`` wrapped to
+        ``(-pi, pi]``, and adds ``u0``. None: ``x0 = 0``, ``u0 = 0``.
 
     Raises
     ------
@@ -76,7 +84,8 @@ class StateFeedbackLaw:
 
     def __init__(self, gain: np.ndarray, reference_gain: Optional[np.ndarray] = None,
                  input_limits: Optional[np.ndarray] = None,
-                 integral: Optional['IntegralAction'] = None) -> None:
+                 integral: Optional['IntegralAction'] = None,
+                 operating_point: Optional[tuple] = None) -> None:
         self.gain = np.atleast_2d(np.asarray(gain, dtype=float))
         if self.gain.ndim != 2:
             raise ConfigError('gain', f'expected an m x n matrix, got shape {self.gain.shape}')
@@ -97,6 +106,14 @@ class StateFeedbackLaw:
             raise ConfigError('integral_gain', f'expected {n_inputs} rows, got '
                               f'{integral.gain.shape[0]}')
         self.integral = integral
+        self.operating_point = None
+        if operating_point is not None:
+            x0, u0, angles = operating_point
+            x0, u0 = np.asarray(x0, dtype=float), np.asarray(u0, dtype=float)
+            if x0.shape != (self.gain.shape[1],) or u0.shape != (n_inputs,):
+                raise ConfigError('operating_point', f'expected x0 of {self.gain.shape[1]} and '
+                                  f'u0 of {n_inputs} values, got {x0.shape} and {u0.shape}')
+            self.operating_point = (x0, u0, np.asarray(angles, dtype=int))
 
     def command(self, estimate: np.ndarray, reference: Optional[np.ndarray] = None,
                 stamp_ns: Optional[int] = None):
@@ -124,7 +141,14 @@ class StateFeedbackLaw:
         [-3.0]
 
         """
-        u = -self.gain @ estimate
+        if self.operating_point is None:
+            u = -self.gain @ estimate
+        else:
+            x0, u0, angles = self.operating_point
+            deviation = estimate - x0
+            if angles.size:
+                deviation[angles] = wrap_angles(deviation[angles])
+            u = u0 - self.gain @ deviation
         if reference is not None and self.reference_gain is not None:
             u = u + self.reference_gain @ reference
         if self.integral is not None:

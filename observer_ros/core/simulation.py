@@ -301,3 +301,30 @@ class PlantSimulator:
         if self.r_root is not None:
             y = y + self.r_root @ self.rng.standard_normal(self.model.n_outputs)
         return y
+
+
+def plant_simulator(model: StateSpaceModel, initial_state=None, process_noise=None,
+                    measurement_noise=None, seed: Optional[int] = None,
+                    input_limits: Optional[np.ndarray] = None, disturbance=None,
+                    disturbance_time: float = 0.0, input_offset=None):
+    """
+    Return the simulator of ``model``: its equations where it carries them, else the linear one.
+
+    A model linearized from equations (``model.dynamics``; a
+    :class:`~observer_ros.core.nonlinear.linearize.LinearizedModel`) describes deviations from
+    its operating point; the plant it stands for is the equations themselves, simulated by
+    :class:`~observer_ros.core.nonlinear.simulation.NonlinearPlantSimulator` (imported only
+    then: a linear plant loads no SymPy). The arguments are those of :class:`PlantSimulator`;
+    a disturbance on equations is refused by the configuration before.
+    """
+    equations = getattr(model, 'nonlinear', None)
+    if equations is None:
+        return PlantSimulator(model, initial_state, process_noise, measurement_noise, seed,
+                              input_limits, disturbance, disturbance_time,
+                              input_offset=input_offset)
+    if disturbance is not None:
+        raise ConfigError('model.disturbances', 'a plant of equations (model.dynamics) takes '
+                          'no disturbance generators; write the disturbance into the equations')
+    from observer_ros.core.nonlinear.simulation import NonlinearPlantSimulator
+    return NonlinearPlantSimulator(equations, initial_state, process_noise, measurement_noise,
+                                   seed, input_limits, input_offset=input_offset)

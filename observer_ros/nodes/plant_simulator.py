@@ -77,7 +77,7 @@ from rosgraph_msgs.msg import Clock as ClockMessage
 from observer_ros.config import PLANT
 from observer_ros.core.model import model_feedthrough
 from observer_ros.core.rules import within_limit
-from observer_ros.core.simulation import PlantSimulator
+from observer_ros.core.simulation import plant_simulator
 from observer_ros.core.units import NANOSECONDS, seconds_to_ns
 from observer_ros.ros.diagnostics import monitor, NodeHealth
 from observer_ros.ros.messages import MalformedMessage, ns_to_stamp, VectorCodec
@@ -108,7 +108,7 @@ class PlantPart:
     def build(self, system) -> None:
         """Make the simulator, the publishers, ``u_cmd`` and the start (and lockstep) timers."""
         plant = system.plant
-        self.simulator = PlantSimulator(
+        self.simulator = plant_simulator(
             system.model, plant.initial_state, plant.process_noise, plant.measurement_noise,
             plant.seed, plant.input_limits, plant.disturbance, plant.disturbance_time,
             input_offset=plant.input_offset)

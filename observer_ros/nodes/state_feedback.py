@@ -67,7 +67,15 @@ def feedback_law(system) -> StateFeedbackLaw:
         design.integral_gain, design.outputs, system.model.dt,
         output_bias=system.augmentation.output_bias(design.outputs))
     return StateFeedbackLaw(feedback.estimate_gain, feedback.reference_gain,
-                            feedback.input_limits, integral)
+                            feedback.input_limits, integral, operating_point(system.model))
+
+
+def operating_point(model) -> Optional[tuple]:
+    """``(x0, u0, angle states)`` of a model linearized from equations, else None."""
+    equations = getattr(model, 'nonlinear', None)
+    if equations is None:
+        return None
+    return model.operating_state, model.operating_input, equations.angle_states
 
 
 def value_limits(system) -> dict:
