@@ -307,7 +307,8 @@ def test_the_example_file_holds_the_arm_joint_and_its_equilibrium():
     assert params['model.operating_point_states'] == [Q0, 0.0]
     assert params['model.operating_point_inputs'] == [TAU0]
     assert params['plant.initial_state'][0] - Q0 == pytest.approx(math.radians(30.0))
-    linearize(model, params['model.operating_point_states'], params['model.operating_point_inputs'])
+    linearize(model, params['model.operating_point_states'],
+              params['model.operating_point_inputs'])
 
 
 # --- the EKF's prediction with one Jacobian a step --------------------------------------
