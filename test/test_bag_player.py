@@ -30,7 +30,8 @@ from conftest import CONFIG_DIR, console_script
 from observer_ros.bags.reading import read_topic
 from observer_ros.bags.replay import replay_bag
 from observer_ros.bags.storage import BagError, Playback
-from observer_ros.nodes.bag_player import main as player_main, message_class
+from observer_ros.bags.storage import playback_class
+from observer_ros.nodes.bag_player import main as player_main
 from observer_ros.nodes.observer import ObserverNode
 from observer_ros.ros.recorder import TopicRecorder
 from ros_support import executor_with, NodeProcess, ros_context, run_lockstep, spin_until
@@ -198,7 +199,7 @@ def test_player_errors_name_the_bag_and_topic(tmp_path, capsys):
                           '--wait', '1'), 'nobody subscribed to /joint_states')
     one_error_line(player(bag, '--wait-for', '/y'), '--wait-for: /y not among the played')
     with pytest.raises(BagError, match='foo_msgs/msg/Bar is not installed here'):
-        message_class('foo_msgs/msg/Bar', '/t')
+        playback_class('foo_msgs/msg/Bar', '/t')
 
 
 def test_player_refuses_a_bag_shorter_than_its_metadata(tmp_path):
@@ -305,9 +306,9 @@ def installed_types(request, tmp_path, monkeypatch):
 
 
 def test_message_types_without_msg_resolve(installed_types):
-    assert message_class('sensor_msgs/JointState', '/t') is JointState
-    assert message_class('sensor_msgs/msg/JointState', '/t') is JointState
-    assert message_class('std_srvs/srv/Trigger_Event', '/t/_service_event').__name__ == (
+    assert playback_class('sensor_msgs/JointState', '/t') is JointState
+    assert playback_class('sensor_msgs/msg/JointState', '/t') is JointState
+    assert playback_class('std_srvs/srv/Trigger_Event', '/t/_service_event').__name__ == (
         'Trigger_Event')
     # A type whose package is surely not installed, in the older pkg/Name spelling too:
     # refused, saying which and how to play without it.
@@ -317,13 +318,13 @@ def test_message_types_without_msg_resolve(installed_types):
         with pytest.raises(BagError, match=f'topic topic1: message type {msgtype} is not '
                                            f'installed here; leave it out with --exclude '
                                            f'topic1'):
-            message_class(msgtype, 'topic1')
+            playback_class(msgtype, 'topic1')
     # rosbag2's own test bags hold test_msgs/BasicTypes (before, this test assumed that
     # package absent and failed where it is installed): it resolves where it is, like any
     # type, and is refused where it is not.
     if importlib.util.find_spec('test_msgs') is not None:
-        assert message_class('test_msgs/BasicTypes', 'topic1') is (
+        assert playback_class('test_msgs/BasicTypes', 'topic1') is (
             importlib.import_module('test_msgs.msg').BasicTypes)
     else:
         with pytest.raises(BagError, match='test_msgs/BasicTypes is not installed here'):
-            message_class('test_msgs/BasicTypes', 'topic1')
+            playback_class('test_msgs/BasicTypes', 'topic1')

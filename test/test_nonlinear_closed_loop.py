@@ -31,7 +31,7 @@ from conftest import REPOSITORY
 from observer_ros.config import validate_parameters
 from observer_ros.config.loader import load_parameter_file
 from observer_ros.core.nonlinear.simulation import NonlinearPlantSimulator
-from observer_ros.core.simulation import plant_simulator
+from observer_ros.core.simulation import simulator_of
 from observer_ros.nodes.closed_loop import ClosedLoop
 from observer_ros.nodes.state_feedback import feedback_law
 from observer_ros.ros.executors import make_executor
@@ -49,8 +49,8 @@ def arm():
 def test_a_plant_of_equations_is_simulated_by_its_equations(arm):
     _, system = arm
     plant = system.plant
-    simulator = plant_simulator(system.model, plant.initial_state, plant.process_noise,
-                                plant.measurement_noise, plant.seed, plant.input_limits)
+    simulator = simulator_of(system.model, plant.initial_state, plant.process_noise,
+                             plant.measurement_noise, plant.seed, plant.input_limits)
     assert isinstance(simulator, NonlinearPlantSimulator)
     assert simulator.model is system.model.nonlinear
 

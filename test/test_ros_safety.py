@@ -41,7 +41,8 @@ from observer_ros.config import load_parameter_file, validate_parameters
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.units import NANOSECONDS
 from observer_ros.nodes.observer_controller import ObserverControllerNode
-from observer_ros.nodes.plant_simulator import PlantSimulatorNode, START_POLL
+from observer_ros.nodes.plant_part import START_POLL
+from observer_ros.nodes.plant_simulator import PlantSimulatorNode
 from observer_ros.nodes.state_feedback import StateFeedbackNode
 from observer_ros.ros.executors import EXECUTORS, make_executor
 from observer_ros.ros.messages import ns_to_stamp, stamp_to_ns

@@ -29,6 +29,8 @@ from typing import Iterator, Optional, Sequence, Tuple
 
 import numpy as np
 
+from observer_ros.wire import message_class as installed_class, MessageClassError
+
 STORAGES = ('mcap', 'sqlite3')
 
 
@@ -282,3 +284,46 @@ class Playback:
     def close(self) -> None:
         """Close the bag."""
         self._reader.close()
+
+
+def playback_class(msgtype: str, topic: str):
+    """
+    Return the Python class of ``pkg/msg/Name`` (or ``pkg/Name``, ``pkg/srv/Name_Event``).
+
+    Raises
+    ------
+    BagError
+        The type is not installed, naming the topic.
+
+    """
+    try:
+        return installed_class(msgtype)  # the wire catalog's one lookup
+    except MessageClassError as e:
+        raise BagError(f'topic {topic}: message type {msgtype} is not installed here; '
+                       f'leave it out with --exclude {topic}') from e
+
+
+def playback_classes(playback: Playback) -> dict:
+    """
+    Return ``{topic: class}`` of the played topics.
+
+    Raises
+    ------
+    BagError
+        One line naming every topic whose type is not installed, and the ``--exclude``
+        that leaves them out.
+
+    """
+    classes, absent = {}, []
+    for topic, (msgtype, _) in playback.topics.items():
+        try:
+            classes[topic] = playback_class(msgtype, topic)
+        except BagError:
+            absent.append(topic)
+    if absent:
+        names = [playback.recorded[topic] for topic in absent]
+        types = ', '.join(f'{name} ({playback.topics[topic][0]})'
+                          for name, topic in zip(names, absent))
+        raise BagError(f'{playback.path}: message types not installed here: {types}; leave '
+                       f'them out with --exclude {" ".join(names)}')
+    return classes

@@ -33,11 +33,12 @@ from observer_ros.config.binding import Binding
 from observer_ros.config.configuration import (
     Configuration, NODE_PARTS, PARTS, validate_parameters)
 from observer_ros.config.feedback import FeedbackSettings
+from observer_ros.config.joint_states import JointStateSelection
 from observer_ros.config.loader import (
     check_parameter_lists, flatten_parameters, load_parameter_file, read_parameter_document)
 from observer_ros.config.loop import LoopAnalysis
 from observer_ros.config.model import Augmentation
-from observer_ros.config.observer import JointStateSelection, ObserverSetup
+from observer_ros.config.observer import ObserverSetup
 from observer_ros.config.parameter_check import complete_parameters
 from observer_ros.config.plant import PlantSettings
 from observer_ros.config.schema import (

@@ -41,13 +41,13 @@ from typing import Iterator, Optional
 import numpy as np
 
 from observer_ros.config.binding import Binding
+from observer_ros.config.joint_states import joint_state_selection, JointStateSelection
 from observer_ros.config.message_noise import attach_message_noise
 from observer_ros.config.model import Augmentation
 from observer_ros.config.odometry import odometry_output, OdometryOutput
-from observer_ros.config.sections import (
-    JointStatesSection, ModelSection, ObserverSection, Sections)
+from observer_ros.config.sections import ModelSection, ObserverSection, Sections
 from observer_ros.config.sources import measurement_sources, SOURCE_ARGUMENTS, SourcesSetup
-from observer_ros.config.values import check_inside, indices
+from observer_ros.config.values import check_inside
 from observer_ros.core.angles import Angles
 from observer_ros.core.design.common import ObserverDesign
 from observer_ros.core.errors import ConfigError, UnobservableError
@@ -60,61 +60,6 @@ from observer_ros.core.observers import (
 from observer_ros.core.rules import ValueLimits
 from observer_ros.core.streaming import EventStream
 from observer_ros.core.units import seconds_to_ns
-
-
-@dataclass(frozen=True)
-class JointStateSelection:
-    """
-    Validated ``observer.joint_*``: which states fill each field of ``joint_states_hat``.
-
-    Attributes
-    ----------
-    names : tuple of str
-        The joint names.
-    position, velocity, effort : tuple of int
-        State indices, one per joint, or empty (the field stays empty).
-
-    """
-
-    names: tuple
-    position: tuple = ()
-    velocity: tuple = ()
-    effort: tuple = ()
-
-
-def joint_state_selection(section: JointStatesSection,
-                          model: StateSpaceModel) -> Optional[JointStateSelection]:
-    """
-    Return the states of each field of ``joint_states_hat`` (None without joint names).
-
-    Raises
-    ------
-    ConfigError
-        Naming the ``observer.joint_*`` parameter.
-
-    """
-    binding = section.binding()
-    names = tuple(section.names)
-    chosen = {field: getattr(section, field) for field in ('position', 'velocity', 'effort')}
-    if not names:
-        for field, states in chosen.items():
-            if states:
-                raise ConfigError(binding[field], 'needs observer.joint_names (the joints of '
-                                  'joint_states_hat)')
-        return None
-    if len(set(names)) != len(names):
-        raise ConfigError(binding['names'], f'names must be unique, got {list(names)}')
-    if not any(chosen.values()):
-        raise ConfigError(binding['names'], 'expected states for at least one field: '
-                          'observer.joint_position_states, observer.joint_velocity_states or '
-                          'observer.joint_effort_states')
-    selected = {}
-    for field, states in chosen.items():
-        if states and len(states) != len(names):
-            raise ConfigError(binding[field], f'expected {len(names)} states (one per joint of '
-                              f'observer.joint_names), got {len(states)}')
-        selected[field] = indices(binding[field], states, model.state_names, 'state')
-    return JointStateSelection(names, **selected)
 
 
 def observer_design(sections: Sections, augmentation: Augmentation) -> Optional['ObserverSetup']:

@@ -303,10 +303,10 @@ class PlantSimulator:
         return y
 
 
-def plant_simulator(model: StateSpaceModel, initial_state=None, process_noise=None,
-                    measurement_noise=None, seed: Optional[int] = None,
-                    input_limits: Optional[np.ndarray] = None, disturbance=None,
-                    disturbance_time: float = 0.0, input_offset=None):
+def simulator_of(model: StateSpaceModel, initial_state=None, process_noise=None,
+                 measurement_noise=None, seed: Optional[int] = None,
+                 input_limits: Optional[np.ndarray] = None, disturbance=None,
+                 disturbance_time: float = 0.0, input_offset=None):
     """
     Return the simulator of ``model``: its equations where it carries them, else the linear one.
 

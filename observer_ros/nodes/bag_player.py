@@ -53,12 +53,12 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 from rosgraph_msgs.msg import Clock
 
-from observer_ros.bags.storage import absolute_topic, BagError, Playback
+from observer_ros.bags.storage import (
+    absolute_topic, BagError, Playback, playback_class, playback_classes)
 from observer_ros.core.units import NANOSECONDS
 from observer_ros.ros.messages import stamp_to_ns
 from observer_ros.ros.qos import volatile_qos
 from observer_ros.signals import StopSignals
-from observer_ros.wire import message_class as installed_class, MessageClassError
 
 
 #: Seconds between discovery matching and the first message.
@@ -75,49 +75,6 @@ CLOCK_QOS = volatile_qos(1, reliable=True)
 
 #: The response subscription: best effort matches every publisher; deep, so none is lost.
 RESPONSE_QOS = volatile_qos(1000, reliable=False)
-
-
-def message_class(msgtype: str, topic: str):
-    """
-    Return the Python class of ``pkg/msg/Name`` (or ``pkg/Name``, ``pkg/srv/Name_Event``).
-
-    Raises
-    ------
-    BagError
-        The type is not installed, naming the topic.
-
-    """
-    try:
-        return installed_class(msgtype)  # the wire catalog's one lookup
-    except MessageClassError as e:
-        raise BagError(f'topic {topic}: message type {msgtype} is not installed here; '
-                       f'leave it out with --exclude {topic}') from e
-
-
-def message_classes(playback: Playback) -> dict:
-    """
-    Return ``{topic: class}`` of the played topics.
-
-    Raises
-    ------
-    BagError
-        One line naming every topic whose type is not installed, and the ``--exclude``
-        that leaves them out.
-
-    """
-    classes, absent = {}, []
-    for topic, (msgtype, _) in playback.topics.items():
-        try:
-            classes[topic] = message_class(msgtype, topic)
-        except BagError:
-            absent.append(topic)
-    if absent:
-        names = [playback.recorded[topic] for topic in absent]
-        types = ', '.join(f'{name} ({playback.topics[topic][0]})'
-                          for name, topic in zip(names, absent))
-        raise BagError(f'{playback.path}: message types not installed here: {types}; leave '
-                       f'them out with --exclude {" ".join(names)}')
-    return classes
 
 
 def _stamp_ns(message) -> Optional[int]:
@@ -207,7 +164,7 @@ class BagPlayer(Node):
         if unknown:
             raise BagError(f'--wait-for: {", ".join(unknown)} not among the played topics '
                            f'({playback.listing()})')
-        classes = message_classes(playback)
+        classes = playback_classes(playback)
         kwargs.setdefault('start_parameter_services', False)
         super().__init__(node_name, **kwargs)
         self.playback = playback
@@ -239,7 +196,7 @@ class BagPlayer(Node):
         resolved = self.resolve_topic_name(self.paced_by)
         for name, types in self.get_topic_names_and_types():
             if name == resolved and types:
-                cls = message_class(types[0], self.paced_by)
+                cls = playback_class(types[0], self.paced_by)
                 self.response_subscription = self.create_subscription(
                     cls, self.paced_by, self._on_response, RESPONSE_QOS)
                 self._response_stamped = hasattr(cls(), 'header')
