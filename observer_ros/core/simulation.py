@@ -323,8 +323,8 @@ def simulator_of(model: StateSpaceModel, initial_state=None, process_noise=None,
                               input_limits, disturbance, disturbance_time,
                               input_offset=input_offset)
     if disturbance is not None:
-        raise ConfigError('model.disturbances', 'a plant of equations (model.dynamics) takes '
-                          'no disturbance generators; write the disturbance into the equations')
+        raise ConfigError('disturbance', 'a plant of equations (model.dynamics) takes no '
+                          'disturbance generators; write the disturbance into the equations')
     from observer_ros.core.nonlinear.simulation import NonlinearPlantSimulator
     return NonlinearPlantSimulator(equations, initial_state, process_noise, measurement_noise,
                                    seed, input_limits, input_offset=input_offset)

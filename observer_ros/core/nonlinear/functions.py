@@ -190,7 +190,7 @@ class FunctionModel(NonlinearModel):
 
     def symbolic(self) -> tuple:
         """Refuse: a model of Python functions has no symbolic expressions."""
-        raise ConfigError('model.function', f'{self.name!r} is a model of Python functions; '
+        raise ConfigError('function', f'{self.name!r} is a model of Python functions; '
                           'it has no symbolic expressions')
 
     def jacobians_at(self, x, u) -> tuple:
