@@ -103,7 +103,10 @@ def test_the_start_up_benchmark_prints_a_time_to_ready_per_node():
     row = [line for line in out.splitlines() if line.startswith('| observer (kalman) |')]
     assert len(row) == 1, out
     import_p50, ready_p50, ready_worst = (float(cell) for cell in row[0].split('|')[3:6])
-    assert 0 < import_p50 < ready_p50 <= ready_worst
+    # The import and the start to ready are timed in different processes: a cold import can
+    # take longer than a warm start (1.21 s against 0.65 s seen in a whole run), so only
+    # each figure's own sense is checked, not their order (a timing is no unit test).
+    assert import_p50 > 0 and 0 < ready_p50 <= ready_worst
 
 
 @pytest.mark.parametrize('window, outputs', [(1, 1), (20, 2), (50, 1), (300, 4), (2000, 6)])
