@@ -121,7 +121,8 @@ class Expression:
     names: frozenset
 
     def build(self, symbols: Mapping[str, object], functions: Mapping[str, Callable],
-              constants: Optional[Mapping[str, object]] = None):
+              constants: Optional[Mapping[str, object]] = None,
+              number: Optional[Callable] = None):
         """
         Return the expression made of ``symbols`` and ``functions`` (a walk of the tree).
 
@@ -133,6 +134,9 @@ class Expression:
             A callable for each name of :data:`FUNCTIONS` the expression calls.
         constants : mapping, optional
             ``pi`` and ``e`` (default: the floats of :data:`CONSTANTS`).
+        number : callable, optional
+            Makes each number written in the expression (default: the number itself; a
+            model passes each as a parameter, so generated code keeps its exact value).
 
         Examples
         --------
@@ -143,20 +147,20 @@ class Expression:
 
         """
         constants = CONSTANTS if constants is None else constants
-        return _build(self.tree, symbols, functions, constants)
+        return _build(self.tree, symbols, functions, constants, number)
 
 
-def _build(node, symbols, functions, constants):
+def _build(node, symbols, functions, constants, number):
     if isinstance(node, ast.Constant):
-        return node.value
+        return node.value if number is None else number(node.value)
     if isinstance(node, ast.Name):
         return symbols[node.id] if node.id in symbols else constants[node.id]
     if isinstance(node, ast.UnaryOp):
-        operand = _build(node.operand, symbols, functions, constants)
+        operand = _build(node.operand, symbols, functions, constants, number)
         return -operand if isinstance(node.op, ast.USub) else +operand
     if isinstance(node, ast.BinOp):
-        left = _build(node.left, symbols, functions, constants)
-        right = _build(node.right, symbols, functions, constants)
+        left = _build(node.left, symbols, functions, constants, number)
+        right = _build(node.right, symbols, functions, constants, number)
         op = type(node.op)
         if op is ast.Add:
             return left + right
@@ -167,7 +171,8 @@ def _build(node, symbols, functions, constants):
         if op is ast.Div:
             return left / right
         return left ** right
-    arguments = [_build(argument, symbols, functions, constants) for argument in node.args]
+    arguments = [_build(argument, symbols, functions, constants, number)
+                 for argument in node.args]
     return functions[node.func.id](*arguments)
 
 

@@ -241,8 +241,7 @@ class NonlinearModel:
         constants = {'pi': sp.pi, 'e': sp.E}
 
         def make(expression: Expression):
-            return sp.sympify(_build_numbers(expression.tree, symbols, functions, constants,
-                                             number))
+            return sp.sympify(expression.build(symbols, functions, constants, number))
 
         self._f = [make(e) for e in self.dynamics]
         self._h = [make(e) for e in self.outputs]
@@ -403,33 +402,6 @@ class _MeasurementFunction:
             return np.full(rows, math.nan), np.full((rows, self.n_states), math.nan)
         values = np.array(values, dtype=float)
         return values[:rows], values[rows:].reshape(rows, self.n_states)
-
-
-def _build_numbers(node, symbols, functions, constants, number):
-    """:meth:`Expression.build` with each number made by ``number`` (a parameter)."""
-    import ast
-    if isinstance(node, ast.Constant):
-        return number(node.value)
-    if isinstance(node, ast.Name):
-        return symbols[node.id] if node.id in symbols else constants[node.id]
-    if isinstance(node, ast.UnaryOp):
-        operand = _build_numbers(node.operand, symbols, functions, constants, number)
-        return -operand if isinstance(node.op, ast.USub) else operand
-    if isinstance(node, ast.BinOp):
-        left = _build_numbers(node.left, symbols, functions, constants, number)
-        right = _build_numbers(node.right, symbols, functions, constants, number)
-        op = type(node.op)
-        if op is ast.Add:
-            return left + right
-        if op is ast.Sub:
-            return left - right
-        if op is ast.Mult:
-            return left * right
-        if op is ast.Div:
-            return left / right
-        return left ** right
-    arguments = [_build_numbers(a, symbols, functions, constants, number) for a in node.args]
-    return functions[node.func.id](*arguments)
 
 
 def differential_drive(wheel_radius: float = 0.05, track_width: float = 0.3,
