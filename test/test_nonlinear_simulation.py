@@ -43,7 +43,7 @@ from observer_ros.core.errors import ConfigError
 from observer_ros.core.model import StateSpaceModel
 from observer_ros.core.nonlinear import (
     differential_drive, ExtendedKalman, linear_as_expressions, UnscentedKalman)
-from observer_ros.core.nonlinear import operating_point, simulation
+from observer_ros.core.nonlinear import filter as filters, operating_point, simulation
 from observer_ros.core.nonlinear.ekf import integrate, integrate_midpoint
 from observer_ros.core.nonlinear.model import NonlinearModel
 from observer_ros.core.nonlinear.operating_point import (
@@ -186,6 +186,9 @@ def test_the_module_examples_run():
     assert result.attempted and not result.failed
     result = doctest.testmod(operating_point, optionflags=doctest.NORMALIZE_WHITESPACE)
     assert not result.failed
+    # the integrator and its step rule, shared by the plant and the filters
+    result = doctest.testmod(filters, optionflags=doctest.NORMALIZE_WHITESPACE)
+    assert result.attempted and not result.failed
 
 
 MASS, LENGTH, GRAVITY, DAMPING = 1.0, 0.5, 9.81, 0.1

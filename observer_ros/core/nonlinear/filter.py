@@ -49,11 +49,53 @@ from observer_ros.core.nonlinear.model import NonlinearModel
 from observer_ros.core.observers.kalman.time_varying import parse_initial_covariance
 from observer_ros.core.units import NANOSECONDS
 
-__all__ = ['NonlinearFilter', 'DEFAULT_MAX_STEP']
+__all__ = ['NonlinearFilter', 'DEFAULT_MAX_STEP', 'rk4', 'rk4_steps']
 
 #: The longest integration step (s) of a continuous model's prediction by default: an
 #: interval of T seconds is integrated in ceil(T / max_step) equal steps of RK4.
 DEFAULT_MAX_STEP = 0.001
+
+#: An interval is cut into ``ceil(T / max_step - SLACK)`` steps: an interval a rounding
+#: above a whole number of steps takes no extra step.
+SLACK = 1e-9
+
+
+def rk4_steps(seconds: float, max_step: float) -> tuple:
+    """
+    Return ``(count, h)``: the equal RK4 steps of an interval (filters and plant alike).
+
+    Examples
+    --------
+    >>> rk4_steps(0.01, 0.001)
+    (10, 0.001)
+    >>> rk4_steps(0.0025, 0.001)
+    (3, 0.0008333333333333334)
+
+    """
+    count = max(1, math.ceil(seconds / max_step - SLACK))
+    return count, seconds / count
+
+
+def rk4(f, x: np.ndarray, u: np.ndarray, count: int, h: float) -> np.ndarray:
+    """
+    Integrate ``x' = f(x, u)`` by the classical RK4 in ``count`` steps of ``h`` seconds.
+
+    ``x`` is one state or rows of states (the unscented filter's sigma points).
+
+    Examples
+    --------
+    >>> rk4(lambda x, u: -x, np.array([1.0]), np.zeros(0), 10, 0.1).round(6).tolist()
+    [0.36788]
+
+    """
+    half, sixth = 0.5 * h, h / 6.0
+    for _ in range(count):
+        k1 = f(x, u)
+        k2 = f(x + half * k1, u)
+        k3 = f(x + half * k2, u)
+        k4 = f(x + h * k3, u)
+        x = x + sixth * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    return x
 
 
 def finite(x: np.ndarray, p: np.ndarray) -> bool:
@@ -204,9 +246,7 @@ class NonlinearFilter(PinnedInitialState, SubsetUpdates, Estimator):
 
     def steps(self, interval_ns: int) -> tuple:
         """Return ``(count, h)``: the RK4 steps of an interval and their length in seconds."""
-        seconds = interval_ns / NANOSECONDS
-        count = max(1, math.ceil(seconds / self.max_step - 1e-9))
-        return count, seconds / count
+        return rk4_steps(interval_ns / NANOSECONDS, self.max_step)
 
     def noise_block(self, outputs: tuple) -> np.ndarray:
         """Return the block of ``R`` of ``outputs`` (cached)."""

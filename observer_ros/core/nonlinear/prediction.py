@@ -51,7 +51,7 @@ from observer_ros.core.errors import ConfigError
 from observer_ros.core.estimators.constant_gain import ConstantGainEstimator
 from observer_ros.core.estimators.intervals import IntervalCache
 from observer_ros.core.estimators.protocol import Prediction
-from observer_ros.core.nonlinear.filter import DEFAULT_MAX_STEP, NonlinearFilter
+from observer_ros.core.nonlinear.filter import DEFAULT_MAX_STEP, NonlinearFilter, rk4
 from observer_ros.core.nonlinear.model import NonlinearModel
 
 __all__ = ['NonlinearPrediction', 'NOMINAL_INTERVAL_NS']
@@ -187,14 +187,7 @@ class NonlinearPrediction(NonlinearFilter):
         u = np.asarray(u, dtype=float)
         if self.model.is_discrete:
             return f(x, u), p
-        count, h = self.steps(interval_ns)
-        for _ in range(count):
-            k1 = f(x, u)
-            k2 = f(x + 0.5 * h * k1, u)
-            k3 = f(x + 0.5 * h * k2, u)
-            k4 = f(x + h * k3, u)
-            x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        return x, p
+        return rk4(f, x, u, *self.steps(interval_ns)), p
 
     def correct(self, x: np.ndarray, p: np.ndarray, y: np.ndarray, u: np.ndarray,
                 outputs: tuple) -> Optional[tuple]:

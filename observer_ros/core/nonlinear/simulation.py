@@ -43,37 +43,17 @@ import numpy as np
 
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.flat_matrices import covariance_from_flat, vector_from_flat
-from observer_ros.core.nonlinear.filter import DEFAULT_MAX_STEP
+from observer_ros.core.nonlinear.filter import DEFAULT_MAX_STEP, rk4, rk4_steps
 from observer_ros.core.nonlinear.model import NonlinearModel
 from observer_ros.core.simulation import input_limits_from_flat
 
-__all__ = ['NonlinearPlantSimulator', 'integrate', 'rk4_steps']
-
-#: An interval is cut into ``ceil(T / max_step - SLACK)`` steps: an interval a rounding
-#: above a whole number of steps takes no extra step (the filters' rule).
-SLACK = 1e-9
+__all__ = ['NonlinearPlantSimulator']
 
 
 def _square_root(covariance: np.ndarray) -> np.ndarray:
     """Symmetric square root of a positive semi-definite matrix (singular allowed)."""
     values, vectors = np.linalg.eigh(covariance)
     return vectors * np.sqrt(np.clip(values, 0.0, None))
-
-
-def rk4_steps(seconds: float, max_step: float) -> tuple:
-    """
-    Return ``(count, h)``: the equal RK4 steps of an interval of ``seconds``.
-
-    Examples
-    --------
-    >>> rk4_steps(0.01, 0.001)
-    (10, 0.001)
-    >>> rk4_steps(0.0025, 0.001)
-    (3, 0.0008333333333333334)
-
-    """
-    count = max(1, math.ceil(seconds / max_step - SLACK))
-    return count, seconds / count
 
 
 class NonlinearPlantSimulator:
@@ -194,7 +174,7 @@ class NonlinearPlantSimulator:
             seconds = float(dt)
             if not (math.isfinite(seconds) and seconds > 0.0):
                 raise ConfigError('dt', f'expected an interval > 0 s, got {dt!r}')
-            new = integrate(model.f, x, u, *rk4_steps(seconds, self.max_step))
+            new = rk4(model.f, x, u, *rk4_steps(seconds, self.max_step))
         if self.q is not None:
             new = new + self._noise_root(seconds) @ self.rng.standard_normal(model.n_states)
         if not np.isfinite(new).all():
@@ -227,23 +207,3 @@ class NonlinearPlantSimulator:
         if self.r_root is not None:
             y = y + self.r_root @ self.rng.standard_normal(model.n_outputs)
         return y
-
-
-def integrate(f, x: np.ndarray, u: np.ndarray, count: int, h: float) -> np.ndarray:
-    """
-    Integrate ``x' = f(x, u)`` by the classical RK4 in ``count`` steps of ``h`` seconds.
-
-    Examples
-    --------
-    >>> integrate(lambda x, u: -x, np.array([1.0]), np.zeros(0), 10, 0.1).round(6).tolist()
-    [0.36788]
-
-    """
-    half, sixth = 0.5 * h, h / 6.0
-    for _ in range(count):
-        k1 = f(x, u)
-        k2 = f(x + half * k1, u)
-        k3 = f(x + half * k2, u)
-        k4 = f(x + h * k3, u)
-        x = x + sixth * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-    return x

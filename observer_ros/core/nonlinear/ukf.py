@@ -43,7 +43,7 @@ import numpy as np
 
 from observer_ros.core.errors import ConfigError
 from observer_ros.core.nonlinear.ekf import integrate
-from observer_ros.core.nonlinear.filter import DEFAULT_MAX_STEP, NonlinearFilter
+from observer_ros.core.nonlinear.filter import DEFAULT_MAX_STEP, NonlinearFilter, rk4
 
 __all__ = ['UnscentedKalman']
 
@@ -160,15 +160,3 @@ class UnscentedKalman(NonlinearFilter):
         whitened = np.linalg.solve(factor, innovation)
         return (x + k @ innovation, p - k @ s @ k.T, innovation, s,
                 float(whitened @ whitened))
-
-
-def rk4(f, x: np.ndarray, u: np.ndarray, count: int, h: float) -> np.ndarray:
-    """Integrate ``x' = f(x, u)`` by the classical RK4 in ``count`` steps of ``h`` (rows of x)."""
-    half, sixth = 0.5 * h, h / 6.0
-    for _ in range(count):
-        k1 = f(x, u)
-        k2 = f(x + half * k1, u)
-        k3 = f(x + half * k2, u)
-        k4 = f(x + h * k3, u)
-        x = x + sixth * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-    return x
