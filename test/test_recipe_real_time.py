@@ -175,6 +175,8 @@ def test_an_input_arriving_at_the_clock_of_the_latest_measurement_takes_its_stam
 
 #: Real-time runs: samples (4 s at 100 Hz, the load at 2 s) and the relay's delay.
 REAL_TIME_SAMPLES, RELAY_DELAY_NS = 400, 25_000_000
+#: How late (ms, at p95) the relay may send and still be a 25 ms relay: 1 ms measured quiet.
+RELAY_PUNCTUALITY_MS = 3.0
 
 
 class Relay(Node):
@@ -184,6 +186,8 @@ class Relay(Node):
         super().__init__('relay', **kwargs)
         self.delay_ns = delay_ns
         self.queue: deque = deque()
+        #: How much later than due each message went out, in nanoseconds.
+        self.lateness: list = []
         self.late = {'u': self.create_publisher(Float64MultiArray, 'u_late', 100),
                      'y': self.create_publisher(JointState, 'y_late', 100)}
         for topic, kind in (('u', Float64MultiArray), ('y', JointState)):
@@ -194,12 +198,17 @@ class Relay(Node):
     def _release(self) -> None:
         now = time.monotonic_ns()
         while self.queue and self.queue[0][0] <= now:
-            _, topic, message = self.queue.popleft()
+            due, topic, message = self.queue.popleft()
             self.late[topic].publish(message)
+            self.lateness.append(now - due)
 
 
-def late_real_time_loop(step: float, unstamped_input: str) -> np.ndarray:
-    """Run the recipe in real time, the observer's ``y`` and ``u`` relayed late; return y."""
+def late_real_time_loop(step: float, unstamped_input: str) -> tuple:
+    """
+    Run the recipe in real time, the observer's ``y`` and ``u`` relayed late.
+
+    Return ``y`` and how much later than due (ns) the relay sent each message.
+    """
     remaps = ('-r', 'observer:y:=y_late', '-r', 'observer:u:=u_late')
     with ros_context('--params-file', str(CONFIG_DIR / CONFIG), *remaps) as context:
         loop = ClosedLoop(record=True, context=context,
@@ -220,7 +229,7 @@ def late_real_time_loop(step: float, unstamped_input: str) -> np.ndarray:
                               and relay.late['y'].get_subscription_count() >= 1
                               and relay.late['u'].get_subscription_count() >= 1, 30.0)
             assert loop.spin(timeout_sec=120.0), 'the real-time run did not finish'
-            return loop.recorder.arrays('y')[1][:, 0]
+            return loop.recorder.arrays('y')[1][:, 0], np.array(relay.lateness)
         finally:
             for node in (helper, relay):
                 if node is not None:
@@ -231,13 +240,24 @@ def late_real_time_loop(step: float, unstamped_input: str) -> np.ndarray:
 
 @pytest.mark.parametrize('step', [1.0, 10.0, 50.0])
 def test_the_recipe_converges_in_real_time_with_its_inputs_25_ms_late(step):
-    y = late_real_time_loop(step, 'next_measurement')
+    y, lateness = late_real_time_loop(step, 'next_measurement')
     assert len(y) == REAL_TIME_SAMPLES
     # 25 ms late, the servo's commands reach the plant 3 samples late too: the loop is
     # slower than the design's, but settles (measured: 2e-3, 2e-3, 7e-2 rad).
-    assert np.abs(y[-SETTLED_SAMPLES:] - step).max() < 0.01 * step
+    error = np.abs(y[-SETTLED_SAMPLES:] - step).max()
+    # The claim is about a relay 25 ms late. On a machine loaded beyond its cores (the suite's
+    # two workers and two busy loops on two cores) the relay's timer itself runs late: 9 ms
+    # at p95 measured so, 1 ms quiet. The commands then reach the plant a fourth sample late
+    # and the servo's loop oscillates, at the base commit of this test too (3 of 4 runs). That
+    # run did not test 25 ms: it is reported as skipped with its figures, never as a pass.
+    late_ms = np.percentile(lateness, 95) / 1e6
+    if error >= 0.01 * step and late_ms > RELAY_PUNCTUALITY_MS:
+        pytest.skip(f'the relay sent its messages {late_ms:.1f} ms later than due at p95 (more '
+                    f'than {RELAY_PUNCTUALITY_MS} ms: the machine is loaded beyond its cores); '
+                    f'the loop ended {error:.3g} rad off')
+    assert error < 0.01 * step, f'{error} rad off, the relay {late_ms:.1f} ms late at p95'
 
 
 def test_the_recipe_diverges_in_real_time_with_inputs_stamped_on_arrival_25_ms_late():
-    y = late_real_time_loop(1.0, 'arrival')  # the report's loop (measured: 3e6 rad)
+    y, _ = late_real_time_loop(1.0, 'arrival')  # the report's loop (measured: 3e6 rad)
     assert np.abs(y[-SETTLED_SAMPLES:] - 1.0).max() > 1e3
