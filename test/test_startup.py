@@ -89,11 +89,12 @@ def test_a_node_that_places_no_poles_loads_no_placement_module():
 
 def test_a_placing_node_loads_its_placement_methods_but_not_python_control():
     # Varga's method calls slycot directly: python-control brought matplotlib (0.4 s) along.
-    # What the placement methods need is loaded at start-up (test_trust_ros checks that a
-    # method changed at run time imports nothing in the parameter callback).
+    # SciPy's place_poles and linear_sum_assignment come without scipy.signal (scipy.stats
+    # with it) and scipy.optimize (test_scipy_parts). What the placement methods need is
+    # loaded at start-up (test_trust_ros checks that a method changed at run time imports
+    # nothing in the parameter callback).
     assert modules_after_building(
-        'observer', 'ObserverNode', 'seed003_full_order.yaml') == [
-        'scipy.optimize', 'scipy.signal', 'scipy.stats', 'slycot']
+        'observer', 'ObserverNode', 'seed003_full_order.yaml') == ['slycot']
 
 
 def test_the_start_up_benchmark_prints_a_time_to_ready_per_node():

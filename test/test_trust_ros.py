@@ -330,14 +330,17 @@ def node_process(code, *ros_args):
 def test_the_placement_modules_are_loaded_before_the_first_callback():
     # before: the first observer.method:=varga imported python-control inside the
     # parameter callback, blocking the observer for 0.5-1.0 s. The placement methods need
-    # slycot (Varga's, called directly), scipy.signal and scipy.optimize; python-control is
+    # slycot (Varga's, called directly) and SciPy's place_poles and linear_sum_assignment
+    # (loaded without scipy.signal and scipy.optimize: test_scipy_parts); python-control is
     # no longer one of them (it brought matplotlib along: test_startup).
-    loaded = 'all(m in sys.modules for m in ("slycot", "scipy.signal", "scipy.optimize"))'
+    parts = 'getattr(sys.modules.get("observer_ros.core.scipy_parts"), "_LOADED", {})'
+    loaded = f'("slycot" in sys.modules and len({parts}) == 2)'
+    none = f'("slycot" not in sys.modules and not {parts})'
     code = ('import sys, rclpy; rclpy.init(args=sys.argv); '
-            f'assert not {loaded.replace("all(", "any(")}; '
+            f'assert {none}; '
             'from observer_ros.nodes.observer import ObserverNode; '
             'from observer_ros.nodes.state_feedback import StateFeedbackNode; '
-            f'assert not {loaded.replace("all(", "any(")}; '
+            f'assert {none}; '
             f'o = ObserverNode(); print("observer", {loaded}); '
             f'f = StateFeedbackNode(); print("feedback", {loaded})')
     process = node_process(code, '--params-file', str(SEED003))

@@ -24,6 +24,8 @@ polynomial's coefficients. :func:`pole_clusters` and its counts also choose the 
 
 import numpy as np
 
+from observer_ros.core.scipy_parts import linear_sum_assignment
+
 
 #: Relative distance under which poles are treated as one (nearly) repeated cluster, both
 #: for choosing the method and for verifying the result.
@@ -128,8 +130,7 @@ def placement_residual(closed_loop: np.ndarray, poles: np.ndarray) -> tuple[floa
     if not np.all(np.isfinite(achieved)):
         return float('inf'), achieved
     cost = np.abs(achieved[:, None] - poles[None, :])
-    from scipy.optimize import linear_sum_assignment  # lazily: see preload_methods
-    rows, cols = linear_sum_assignment(cost)
+    rows, cols = linear_sum_assignment()(cost)  # SciPy's, loaded when first used
     matched = np.empty_like(poles)
     matched[cols] = achieved[rows]
     residual = 0.0

@@ -16,16 +16,19 @@
 """
 The pole-placement methods: each computes a gain, which ``place`` then verifies.
 
-``'place'`` (:func:`scipy.signal.place_poles`), ``'varga'`` (SLICOT ``SB01BD``, as
+``'place'`` (SciPy's ``place_poles``), ``'varga'`` (SLICOT ``SB01BD``, as
 :func:`control.place_varga` calls it), ``'acker'``, ``'direct'`` and ``'canonical'``
 (single input); :func:`observer_ros.core.placement.place` chooses among them and checks
-the poles achieved. What they need (scipy.signal, scipy.optimize, slycot) is imported when
-a placement is made, or by :func:`preload_methods`.
+the poles achieved. What they need (two SciPy functions, slycot) is loaded when a placement
+is made, or by :func:`preload_methods`: SciPy's ``place_poles`` without ``scipy.signal``
+and its ``linear_sum_assignment`` without ``scipy.optimize``
+(:mod:`observer_ros.core.scipy_parts`).
 """
 
 import numpy as np
 
 from observer_ros.core.ranks import controllability_matrix
+from observer_ros.core.scipy_parts import linear_sum_assignment, place_poles
 
 
 #: Above this many states ``'auto'`` tries Varga's method first and ``'place'`` iterates
@@ -70,20 +73,20 @@ def _canonical(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
     return np.linalg.solve((ctrb @ hankel).T, difference).reshape(1, n_states)
 
 
-def _scipy_place(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
+def _scipy_parts(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
     maxiter = 50 if a.shape[0] <= LARGE_STATES else LARGE_MAXITER
-    from scipy.signal import place_poles  # lazily: see preload_methods
-    result = place_poles(a, b, poles, method='YT', maxiter=maxiter)
+    result = place_poles()(a, b, poles, method='YT', maxiter=maxiter)
     return np.asarray(result.gain_matrix)
 
 
 def preload_methods() -> None:
     """
-    Import what the placement methods need (scipy.signal, scipy.optimize, slycot), now.
+    Load what the placement methods need (two SciPy functions, slycot), now.
 
-    The core imports them only when a placement is first made: ``scipy.signal`` alone takes
-    0.4-1.7 s (it pulls in scipy.stats), which a node that designs nothing by placement
-    (a Kalman filter, the plant) should not pay at start-up. Nodes that may place poles
+    The core loads them only when a placement is first made (a node that designs nothing by
+    placement, a Kalman filter or the plant, pays nothing at start-up); ``place_poles`` comes
+    without ``scipy.signal``, ``linear_sum_assignment`` without ``scipy.optimize``
+    (:mod:`observer_ros.core.scipy_parts`). Nodes that may place poles
     call this at start-up, so that no design on a callback path (a new ``observer.method``
     or poles set at run time, a design per sample interval) pays for an import. Varga's
     method calls SLICOT through slycot directly, not through python-control, whose import
@@ -95,8 +98,8 @@ def preload_methods() -> None:
     >>> preload_methods()
 
     """
-    import scipy.optimize  # noqa: F401
-    import scipy.signal  # noqa: F401
+    place_poles()
+    linear_sum_assignment()
     try:
         import slycot  # noqa: F401
     except ImportError:  # Varga's method then fails as an attempt, naming the import
@@ -116,7 +119,7 @@ def _varga(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
 
 
 _ALGORITHMS = {
-    'place': _scipy_place,
+    'place': _scipy_parts,
     'varga': _varga,
     'acker': _acker,
     'direct': _direct,
