@@ -27,10 +27,11 @@ import os
 import sys
 
 import pytest
-from test_lean_path import callbacks, CONFIG, message, recorded, STEP_NS
+from test_lean_path import callbacks, CONFIG, CONTROLLER, message, recorded, STEP_NS
 
 import observer_ros
 from observer_ros.nodes.observer import ObserverNode
+from observer_ros.nodes.observer_controller import ObserverControllerNode
 from observer_ros.wire import DecodeError
 from observer_ros.wire.vectors import MessageReader
 from ros_support import ros_context
@@ -111,3 +112,38 @@ def test_the_reader_checks_a_repeated_layout_in_place_whatever_holds_the_bytes()
     with pytest.raises(DecodeError, match='y1'):
         reader.read_parts(other)
     assert reader.read_parts(second) == (0, 3 * STEP_NS, [-2.0])
+
+
+def test_commands_do_not_re_arm_the_watchdog_which_waits_out_the_rest_itself():
+    # Before, every command reset the watchdog timer: with the EventsExecutor that wakes its
+    # timer thread once per message (7 us per round of the controller in benchmark 4).
+    with ros_context('--params-file', str(CONFIG)) as context:
+        node = ObserverControllerNode(context=context, parameter_overrides=CONTROLLER)
+        try:
+            part = node.feedback_part
+            commands, resets = [], []
+            recorded(part.publisher, commands)
+            watchdog = part.watchdog
+            reset = watchdog.reset
+            watchdog.reset = lambda: resets.append(watchdog.timer_period_ns) or reset()
+            on_y = callbacks(node)['y']
+            for k in range(1, 41):
+                on_y(message('y1', k * STEP_NS, 0.0))
+            assert len(commands) >= 30
+            timeout_ns = int(node.system.feedback.timeout * 1e9)
+            assert resets == [timeout_ns]  # armed by the first command only
+            # The timer fires while estimates keep coming: it waits the rest, no safe command.
+            part.last_estimate_ns -= timeout_ns // 4
+            part._on_watchdog()
+            assert not part.stale and not watchdog.is_canceled()
+            assert len(resets) == 2 and 0 < resets[1] <= timeout_ns - timeout_ns // 4
+            # Then nothing for the whole timeout: stale, the safe command goes out.
+            part.last_estimate_ns -= timeout_ns
+            sent = len(commands)
+            part._on_watchdog()
+            assert part.stale and watchdog.is_canceled() and len(commands) == sent + 1
+            # The next estimate ends the stale spell and arms the watchdog again.
+            on_y(message('y1', 41 * STEP_NS, 0.0))
+            assert not part.stale and resets[-1] == timeout_ns
+        finally:
+            node.destroy_node()
