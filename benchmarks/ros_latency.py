@@ -15,17 +15,23 @@
 """
 4. ROS latency: a ``y`` publish to its ``x_hat`` (and to its ``u_cmd``), against relays.
 
-The observer node, a raw relay (subscribe ``y`` serialized, publish the same bytes: the
-floor of rclpy's transport) and a plain relay (subscribe ``y``, copy the JointState,
-publish it, as an ordinary rclpy node does) run as separate processes on the same executor
-type with the package's QoS. A probe in this process waits until every endpoint is matched
+The observer node, two raw relays (subscribe ``y`` serialized, publish the same bytes: the
+floor of rclpy's transport; one of them also subscribes ``u`` serialized and ignores it) and
+a plain relay (subscribe ``y``, copy the JointState, publish it, as an ordinary rclpy node
+does; it also takes ``u``) run as separate processes on the same executor type with the
+package's QoS. A probe in this process waits until every endpoint is matched
 both ways and each node has answered once, then pings them in turn, one message in flight
 at a time, and takes the time from its publish to the answer with the same stamp. As in a
 closed loop, the probe sends the command ``u`` stamped like ``y`` after the estimate arrived
 (the estimate for the next ``y`` needs it), outside the timed window; every ping starts
 after the same idle gap, so the observer has taken that ``u`` before its next ``y``. The
 observer-controller (the same observer and a state feedback, ``controller.input: command``,
-its estimate topics remapped away) answers each ``y`` with ``u_cmd``.
+its estimate topics remapped away) answers each ``y`` with ``u_cmd``; it takes no ``u``.
+
+Each node is compared with the raw relay that receives the same traffic (:data:`FLOOR`): the
+observer (a ``y`` and a ``u`` per round) with the raw relay that takes ``u`` too, the
+controller (a ``y`` per round) with the one that takes ``y`` only. The ratios against the
+``y``-only relay, the accounting before issue 29's second round, are reported beside them.
 
 Beside the round trips, the CPU time each node's process spent per round (every thread,
 ``/proc/<pid>/task/*/schedstat``, over the timed rounds: in place, cold, as a loop meets
@@ -61,6 +67,8 @@ CONFIG = CONFIG_DIR / 'seed001_fourth_order.yaml'
 TARGETS = {
     'raw_relay': ('raw_relay_in', 'raw_relay', ('-r', 'y:=raw_relay_in', '-r',
                                                 'relay:=raw_relay')),
+    'raw_relay_u': ('raw_relay_u_in', 'raw_relay_u', ('-r', 'y:=raw_relay_u_in', '-r',
+                                                      'relay:=raw_relay_u')),
     'relay': ('relay_in', 'relay', ('-r', 'y:=relay_in')),
     'x_hat': ('y', 'observer', ()),
     'u_cmd': ('controller_in', 'observer_controller', (
@@ -68,11 +76,21 @@ TARGETS = {
         'innovation:=controller_innovation', '-p', 'controller.input:=command', '-p',
         "feedback.poles:=['-2+1j', '-2-1j', '-3', '-4']")),
 }
-LABELS = {'raw_relay': 'raw relay', 'relay': 'plain relay', 'x_hat': 'observer',
-          'u_cmd': 'controller'}
+LABELS = {'raw_relay': 'raw relay', 'raw_relay_u': 'raw relay + u', 'relay': 'plain relay',
+          'x_hat': 'observer', 'u_cmd': 'controller'}
+
+#: Messages a node receives per round: its request, and the probe's ``u`` if it subscribes it
+#: (the probe publishes one ``u`` per round, after the observer's answer).
+MESSAGES = {'raw_relay': 1, 'raw_relay_u': 2, 'relay': 2, 'x_hat': 2, 'u_cmd': 1}
 
 #: The package's nodes against the raw relay: answer topic -> label of the ratios.
 MEASURED = {'x_hat': 'observer', 'u_cmd': 'controller'}
+
+#: The raw relay each node of :data:`MEASURED` is held against: the one with the same traffic.
+FLOOR = {'x_hat': 'raw_relay_u', 'u_cmd': 'raw_relay'}
+
+#: The accounting before: every node against the ``y``-only raw relay (reported beside).
+OLD_FLOOR = 'raw_relay'
 
 #: Idle time before every ping (s), and how long a ping waits for its answer (s).
 GAP = 0.001
@@ -295,19 +313,25 @@ def run(smoke: bool, figures) -> Section:
     section = Section(4, 'ROS latency: y to x_hat and to u_cmd against a raw relay',
                       f'observer (y to x_hat) and observer-controller (y to u_cmd) p50 within '
                       f'{GOAL_P50}x and p99 within {GOAL_P99}x those of the raw relay (the '
-                      'floor of rclpy transport), same executor and QoS')
+                      'floor of rclpy transport) that receives the same messages, same executor '
+                      f'and QoS; CPU per round in place at most {GOAL_CPU["x_hat"]}x (observer) '
+                      f'and {GOAL_CPU["u_cmd"]}x (controller) that relay\'s')
     measured = {name: measure(name, rounds, warm_up) for name in EXECUTORS}
     results = {name: latencies for name, (latencies, _) in measured.items()}
     cpu = {name: process for name, (_, process) in measured.items()}
     rows, ratios = [], {}
+
+    def ratio(values: dict, target: str, floor: str) -> tuple:
+        return tuple(percentile(values[target], q) / percentile(values[floor], q)
+                     for q in (50, 99))
+
     for name, values in results.items():
-        raw = values['raw_relay']
-        ratios[name] = {target: (percentile(values[target], 50) / percentile(raw, 50),
-                                 percentile(values[target], 99) / percentile(raw, 99))
-                        for target in MEASURED}
+        ratios[name] = {target: ratio(values, target, FLOOR[target]) for target in MEASURED}
+        old = ratio(values, 'x_hat', OLD_FLOOR)
         rows.append([name, *(f'{percentile(values[t], q):.0f}' for t in TARGETS
                              for q in (50, 99)),
                      *(f'{ratios[name][t][i]:.2f}' for t in MEASURED for i in (0, 1)),
+                     *(f'{value:.2f}' for value in old),
                      int(sum(np.isnan(v).sum() for v in values.values()))])
     fastest = min(results, key=lambda name: percentile(results[name]['x_hat'], 50))
     section.add(f'{rounds} round trips per node and executor (after {warm_up} warm-up rounds '
@@ -317,11 +341,20 @@ def run(smoke: bool, figures) -> Section:
                 '-3, -4); each node in its own process, the probe in another. Microseconds, '
                 'probe publish to probe callback (both ways through DDS).', '')
     section.table(['executor', *(f'{LABELS[t]} {q}' for t in TARGETS for q in ('p50', 'p99')),
-                   *(f'{label} / raw {q}' for label in MEASURED.values()
-                     for q in ('p50', 'p99')), 'lost'], rows)
+                   *(f'{label} / {LABELS[FLOOR[t]]} {q}' for t, label in MEASURED.items()
+                     for q in ('p50', 'p99')),
+                   *(f'observer / {LABELS[OLD_FLOOR]} {q} (old)' for q in ('p50', 'p99')),
+                   'lost'], rows)
     section.add(f'Fastest executor for the observer: **{fastest}**; the nodes spin '
                 f'**{EXECUTORS[0]}** unless given `--executor`. The raw relay republishes the '
-                'bytes it receives (no message objects): what is left is rclpy and DDS. The '
+                'bytes it receives (no message objects): what is left is rclpy and DDS. Each '
+                "round the probe also publishes the command `u` once, after the observer's "
+                'answer (outside every timed window), and every node subscribed to `u` receives '
+                'it: the observer, the raw relay + u (which ignores it) and the plain relay. So '
+                'each node is held against the raw relay that receives the same messages '
+                'per round (observer: raw relay + u, two; controller, which takes no `u`: raw '
+                'relay, one); the columns marked old hold the observer against the `y`-only '
+                'raw relay, the accounting before, so that the goal is seen not to move. The '
                 'observer also reads and writes CDR bytes, and on top decodes `y`, runs the '
                 'estimator and publishes `x_hat` (`innovation` only while subscribed: not '
                 'here). The observer-controller decodes `y`, runs the estimator and the '
@@ -336,17 +369,20 @@ def run(smoke: bool, figures) -> Section:
                   for target in MEASURED}
     cpu_rows = []
     for name, process in cpu.items():
-        raw = process['raw_relay']
         cpu_rows.append([name, *(f'{process[t]:.0f}' for t in TARGETS),
-                         *(f'{process[t] / raw:.2f}' for t in MEASURED)])
+                         *(f'{process[t] / process[FLOOR[t]]:.2f}' for t in MEASURED),
+                         f'{process["x_hat"] / process[OLD_FLOOR]:.2f}'])
     section.add(f"CPU time per round of each node's process, in place (cold: {GAP * 1e3:g} ms "
                 'idle before every ping, the other nodes pinged in between): every thread of '
-                "the process over the timed rounds, divided by the rounds (the observer's "
-                f'includes its `u`). Goals against the raw relay: observer at most '
-                f'{GOAL_CPU["x_hat"]}x, controller at most {GOAL_CPU["u_cmd"]}x. Microseconds.',
-                '')
+                'the process over the timed rounds, divided by the rounds. Messages received '
+                'per round: ' + ', '.join(f'{LABELS[t]} {count}' for t, count in MESSAGES.items())
+                + '. Goals against the raw relay with the same messages: observer at most '
+                f'{GOAL_CPU["x_hat"]}x the raw relay + u\'s, controller at most '
+                f'{GOAL_CPU["u_cmd"]}x the raw relay\'s; the last column is the old accounting '
+                '(observer against the `y`-only raw relay). Microseconds.', '')
     section.table(['executor', *(LABELS[t] for t in TARGETS),
-                   *(f'{LABELS[t]} / raw' for t in MEASURED)], cpu_rows)
+                   *(f'{LABELS[t]} / {LABELS[FLOOR[t]]}' for t in MEASURED),
+                   f'observer / {LABELS[OLD_FLOOR]} (old)'], cpu_rows)
     section.add(f"In this process, the thread CPU time of one message through the node's "
                 f'subscription callbacks (median of {count}; nothing subscribed to its topics): '
                 + '; '.join(f'{LABELS[t]} {hot:.0f} us in a tight loop, {cold:.0f} us with '
@@ -355,7 +391,7 @@ def run(smoke: bool, figures) -> Section:
     process = cpu[EXECUTORS[0]]
     section.met = (all(p50 <= GOAL_P50 and p99 <= GOAL_P99
                        for p50, p99 in ratios[EXECUTORS[0]].values())
-                   and all(process[t] <= GOAL_CPU[t] * process['raw_relay'] for t in MEASURED))
+                   and all(process[t] <= GOAL_CPU[t] * process[FLOOR[t]] for t in MEASURED))
     plt = pyplot()
     figure, axis = plt.subplots(figsize=(8, 3.5))
     data, labels = [], []

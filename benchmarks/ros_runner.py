@@ -16,7 +16,7 @@
 Spin a node of benchmarks 4 and 5 on a chosen executor.
 
 ``python -m benchmarks.ros_runner KIND [--executor NAME] --ros-args ...``, ``KIND`` one of
-``observer``, ``relay``, ``raw_relay``, ``observer_controller`` (benchmark 4),
+``observer``, ``relay``, ``raw_relay``, ``raw_relay_u``, ``observer_controller`` (benchmark 4),
 ``state_feedback`` and ``plant_simulator`` (benchmark 5; the package's own nodes, so that no
 installed console script has to be found: the same code runs from a pip set-up and a colcon
 workspace).
@@ -35,13 +35,23 @@ from observer_ros.ros.qos import publisher_qos, subscription_qos
 from observer_ros.ros.run import run_node
 
 
-class Relay(Node):
-    """Subscribe ``y``, copy the JointState, publish it on ``relay``: a plain rclpy node."""
+def ignore(message) -> None:
+    """Take a message and do nothing with it (a relay's ``u``)."""
 
-    def __init__(self) -> None:
-        super().__init__('relay')
+
+class Relay(Node):
+    """
+    Subscribe ``y``, copy the JointState, publish it on ``relay``: a plain rclpy node.
+
+    It also subscribes ``u`` (serialized, ignored), so that it receives what the observer
+    receives in a round of benchmark 4: a ``y`` and the ``u`` after it.
+    """
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__('relay', **kwargs)
         self.publisher = self.create_publisher(JointState, 'relay', publisher_qos())
         self.create_subscription(JointState, 'y', self._on_message, subscription_qos())
+        self.create_subscription(JointState, 'u', ignore, subscription_qos(), raw=True)
 
     def _on_message(self, message: JointState) -> None:
         self.publisher.publish(JointState(header=message.header, name=list(message.name),
@@ -56,15 +66,30 @@ class RawRelay(Node):
     in Python costs less per message than this.
     """
 
-    def __init__(self) -> None:
-        super().__init__('raw_relay')
+    def __init__(self, node_name: str = 'raw_relay', **kwargs) -> None:
+        super().__init__(node_name, **kwargs)
         publisher = self.create_publisher(JointState, 'relay', publisher_qos())
         self.create_subscription(JointState, 'y', publisher.publish, subscription_qos(),
                                  raw=True)
 
 
+class RawInputRelay(RawRelay):
+    """
+    The raw relay that also subscribes ``u`` serialized and does nothing with it.
+
+    The floor for the observer in benchmark 4: it receives the same traffic (a ``y``, then
+    the ``u`` the probe sends after the estimate), so the two processes' CPU per round
+    compare the same number of messages.
+    """
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__('raw_relay_u', **kwargs)
+        self.create_subscription(JointState, 'u', ignore, subscription_qos(), raw=True)
+
+
 #: What ``python -m benchmarks.ros_runner KIND`` spins.
 NODES = {'observer': ObserverNode, 'relay': Relay, 'raw_relay': RawRelay,
+         'raw_relay_u': RawInputRelay,
          'state_feedback': StateFeedbackNode, 'plant_simulator': PlantSimulatorNode,
          'observer_controller': ObserverControllerNode}
 

@@ -33,12 +33,14 @@ counted (``out_of_range``); a command that comes out non-finite or beyond
 ``unsafe_command``, still stamped like its estimate).
 
 The watchdog runs on the steady clock, whatever ``use_sim_time`` says: ``feedback.timeout``
-seconds of real time after the last accepted estimate arrived, a one-shot timer re-armed by
-every accepted estimate fires and the node publishes ``feedback.safe_command`` (stamped with
-the node clock), then repeats it every ``feedback.safe_command_period`` seconds until the
-next accepted estimate. So a ``/clock`` that jumps back, stops or races does not change when
-the safe command comes. The watchdog arms with the first accepted estimate: before any, the
-node publishes nothing (the plant applies its own safe input).
+seconds of real time after the last accepted estimate arrived the node publishes
+``feedback.safe_command`` (stamped with the node clock), then repeats it every
+``feedback.safe_command_period`` seconds until the next accepted estimate. The timer is armed
+by the first estimate and, when it fires while estimates kept coming, waits out the rest of
+the timeout from the last one: an estimate only notes when it came (re-arming a timer for
+every estimate woke the executor's timer thread once per message). So a ``/clock`` that
+jumps back, stops or races does not change when the safe command comes. Before the first
+accepted estimate the node publishes nothing (the plant applies its own safe input).
 """
 
 from collections import Counter
@@ -218,7 +220,8 @@ class FeedbackPart:
             command = self.node.system.feedback.safe_command
         self.publisher.publish(self.feedback_codecs['u_cmd'].encode(stamp, command))
         # The bookkeeping after the command is out (nothing runs in between).
-        self.watchdog.reset()
+        if self.watchdog.is_canceled():  # else it is running and finds last_estimate_ns
+            self._arm_watchdog(seconds_to_ns(self.node.system.feedback.timeout))
         if self.stale:
             self.stale = False
             self.repeat_timer.cancel()
@@ -253,8 +256,10 @@ class FeedbackPart:
             return
         timeout = self.node.system.feedback.timeout
         waited = time.monotonic_ns() - self.last_estimate_ns
-        if waited < seconds_to_ns(timeout):
-            return  # an estimate re-armed the timer after this call was due
+        timeout_ns = seconds_to_ns(timeout)
+        if waited < timeout_ns:  # estimates came meanwhile: wait the rest from the last one
+            self._arm_watchdog(timeout_ns - waited)
+            return
         self.watchdog.cancel()
         self.stale = True
         self.command_counters['stale'] += 1
@@ -265,6 +270,11 @@ class FeedbackPart:
             f'{timeout} s, steady clock): publishing the safe command '
             f'{self.node.system.feedback.safe_command.tolist()} every '
             f'feedback.safe_command_period = {self.node.system.feedback.safe_command_period} s')
+
+    def _arm_watchdog(self, period_ns: int) -> None:
+        """Let the watchdog fire ``period_ns`` from now (steady clock)."""
+        self.watchdog.timer_period_ns = period_ns
+        self.watchdog.reset()
 
     def _publish_safe_command(self) -> None:
         if not self.stale:

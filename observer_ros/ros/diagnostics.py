@@ -186,7 +186,7 @@ class NodeHealth:
 
     def sample(self, innovation, nis: Optional[float], covariance) -> None:
         """Take one published estimate's innovation, NIS and covariance."""
-        self.innovations.append(sum(value * value for value in innovation))
+        self.innovations.append(sum([value * value for value in innovation]))
         if nis is not None and self.nis is not None:
             self.nis.add(nis)
         if covariance is not None:

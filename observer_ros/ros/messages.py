@@ -53,6 +53,9 @@ class MalformedMessage(ValueError):
     """A message that cannot give the expected vector (reason in the text)."""
 
 
+#: How a serialized message in little-endian plain CDR starts (else: the general deserializer).
+LITTLE_ENDIAN = HEADER[:2]
+
 #: The latest stamp a ``builtin_interfaces/Time`` holds (``sec`` is an int32).
 LATEST_STAMP_NS = (2 ** 31 - 1) * NANOSECONDS + NANOSECONDS - 1
 
@@ -210,7 +213,7 @@ class VectorCodec(WireDecoding):
     def decode_values(self, message) -> tuple[Optional[int], list]:
         """Return what :meth:`decode` does, the values as a list of floats (no array)."""
         if isinstance(message, bytes):
-            if message[:2] != HEADER[:2]:  # big-endian or exotic: the general deserializer
+            if not message.startswith(LITTLE_ENDIAN):  # big-endian or exotic: deserialize
                 return self.decode_values(self._deserialize(message))
             try:
                 seconds, nanoseconds, values = self._reader.read_parts(message)
@@ -291,7 +294,7 @@ class FieldCodec(WireDecoding):
     def decode_values(self, message) -> tuple[Optional[int], list]:
         """Return what :meth:`decode` does, the values as a list of floats (no array)."""
         if isinstance(message, bytes):
-            if message[:2] != HEADER[:2]:  # big-endian or exotic: the general deserializer
+            if not message.startswith(LITTLE_ENDIAN):  # big-endian or exotic: deserialize
                 return self.decode_values(self._deserialize(message))
             try:
                 seconds, nanoseconds, values = self._read(message)

@@ -193,13 +193,18 @@ class MessageReader:
     def _layout(self, raw) -> _Known:
         last = self._last
         if last is not None and len(raw) == last.size:
-            (a, b), (c, d), (e, f) = last.spans
-            head, middle, tail = self._last_bytes
-            if raw[a:b] == head and raw[c:d] == middle and raw[e:f] == tail:
+            head, start, middle, tail = self._last_bytes
+            if type(raw) is bytes:  # compared in place, without slicing copies
+                if raw.startswith(head) and raw.startswith(middle, start) and raw.endswith(tail):
+                    return last
+            elif (raw[:len(head)] == head and raw[start:start + len(middle)] == middle
+                  and raw[len(raw) - len(tail):] == tail):
                 return last
         known = self._match(raw)
         self._last = known
-        self._last_bytes = tuple(bytes(raw[start:end]) for start, end in known.spans)
+        # The spans start at 0 and end at the size: the first is a prefix, the last a suffix.
+        head, middle, tail = (bytes(raw[start:end]) for start, end in known.spans)
+        self._last_bytes = (head, known.spans[1][0], middle, tail)
         return known
 
     def _match(self, raw) -> _Known:
@@ -240,7 +245,12 @@ class MessageReader:
 
         ``values`` is a list in the wanted order. Raises DecodeError as :meth:`read` does.
         """
-        known = self._layout(raw)
+        known = self._last  # the last layout seen, checked in place (see _layout)
+        if not (type(raw) is bytes and known is not None and len(raw) == known.size
+                and raw.startswith(self._last_bytes[0])
+                and raw.startswith(self._last_bytes[2], self._last_bytes[1])
+                and raw.endswith(self._last_bytes[3])):
+            known = self._layout(raw)
         seconds = nanoseconds = 0
         if self.stamped:
             seconds, nanoseconds = STAMP.unpack_from(raw, ORIGIN)
