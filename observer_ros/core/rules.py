@@ -134,6 +134,11 @@ class InputHistory:
 
     def store(self, stamp_ns: int, vector) -> None:
         """Keep an input in stamp order; a repeated stamp replaces the earlier input."""
+        stamps = self.stamps
+        if not stamps or stamp_ns > stamps[-1]:  # the usual case: the newest input
+            stamps.append(stamp_ns)
+            self.values.append(vector)
+            return
         index = bisect.bisect_left(self.stamps, stamp_ns)
         if index < len(self.stamps) and self.stamps[index] == stamp_ns:
             self.values[index] = vector

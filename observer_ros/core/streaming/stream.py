@@ -14,6 +14,7 @@
 
 """The event stream: an estimator run on the rows of the event engine, event by event."""
 
+import math
 from collections import Counter
 from typing import Optional, Sequence
 
@@ -246,6 +247,8 @@ class EventStream(SourceUpdates, SteadyPath, RecordedReplay):
         check).
         """
         released = self.engine.add_input(stamp_ns, u, now_ns, source)
+        if not self._fast:  # prepare() would find nothing to prepare (and nothing prepared)
+            return released
         prepared = self._prepared_at
         if not released and (prepared is None or prepared != self.estimator.stamp_ns
                              or stamp_ns <= prepared or self.engine.queue):
@@ -316,47 +319,61 @@ class EventStream(SourceUpdates, SteadyPath, RecordedReplay):
 
     def take(self, row) -> list:
         """Run the estimator on one row of the engine; return the estimates it gives now."""
-        if row.source == PREDICTION:
-            return [self._delayed(row.y, row.u)]
+        source, stamp_ns, y, u, interval_ns, arrival_ns, outputs, rerun = row
+        if source == PREDICTION:
+            return [self._delayed(y, u)]
         estimator = self.estimator
-        if row.interval_ns == 0 and estimator.stamp_ns is not None:
+        if interval_ns == 0 and estimator.stamp_ns is not None:
             estimator.restart()  # a gap or a backward jump: start from the estimate held
-        outputs = row.outputs
-        y = row.y
         d = estimator.feedthrough
         if outputs is None:
             if d is not None:  # D u with the input in effect at the measurement's stamp
-                y = without_feedthrough(d, y, self.engine.held_input(row.stamp_ns))
-            estimate = estimator.advance(row.stamp_ns, y, row.u)  # checked on arrival
+                y = without_feedthrough(d, y, self.engine.held_input(stamp_ns))
+            estimate = estimator.advance(stamp_ns, y, u)  # checked on arrival
         else:
             update = self._updates.get(outputs)
             if update is None:
                 update = self._update_outputs(outputs)
             if d is not None and update:
-                y = without_feedthrough(d, y, self.engine.held_input(row.stamp_ns), update)
-            estimate = estimator.advance_outputs(row.stamp_ns, y if update else NO_VALUES,
-                                                 row.u, update)
+                y = without_feedthrough(d, y, self.engine.held_input(stamp_ns), update)
+            estimate = estimator.advance_outputs(stamp_ns, y if update else NO_VALUES, u,
+                                                 update)
         innovation = estimator.innovation
-        if not self._publishable(estimate, innovation,
-                                 estimator.result if self._fast else None):
-            return []
+        if self._fast or not self._inside_limits(estimate, innovation):
+            if not self._publishable(estimate, innovation,
+                                     estimator.result if self._fast else None):
+                return []
         covariance = estimator.innovation_covariance
         # The protocol's NIS is computed from the innovation and S when first read.
         nis = None if covariance is None or self._lazy_nis else estimator.nis
-        if outputs is None and not row.rerun:
+        if outputs is None and not rerun:
             self.engine.counters['estimates'] += 1
-            sample = EstimateSample(row.stamp_ns, estimate, innovation, estimator.covariance,
+            sample = EstimateSample(stamp_ns, estimate, innovation, estimator.covariance,
                                     covariance, nis)
         else:
-            if not row.rerun:
+            if not rerun:
                 self.engine.counters['estimates'] += 1
-            sample = SourceSample(row.stamp_ns, estimate.copy(), innovation,
-                                  estimator.covariance, covariance, nis,
-                                  None if outputs is None else update, row.rerun)
+            sample = SourceSample(stamp_ns, estimate.copy(), innovation, estimator.covariance,
+                                  covariance, nis, None if outputs is None else update, rerun)
         if self.form == 'current':
             return [sample]
-        self.engine.await_input(row.stamp_ns, sample, row.arrival_ns)
+        self.engine.await_input(stamp_ns, sample, arrival_ns)
         return []
+
+    def _inside_limits(self, estimate, innovation) -> bool:
+        """
+        The common case of :meth:`_publishable` in one test: both arrays finite and inside.
+
+        False says nothing (another type, or a value to look at): :meth:`_publishable` rules.
+        """
+        if type(estimate) is not np.ndarray or type(innovation) is not np.ndarray:
+            return False
+        limits = self.limits
+        square, limit = estimate.dot(estimate), limits.estimate  # within_limit's common case
+        if not (square < math.inf and square <= limit * limit):
+            return False
+        square, limit = innovation.dot(innovation), limits.innovation
+        return square < math.inf and square <= limit * limit
 
     def _delayed(self, sample: EstimateSample, u: np.ndarray) -> EstimateSample:
         """Return the prediction ``x[k+1|k]`` of a current sample, with the next input ``u``."""
