@@ -153,7 +153,7 @@ class History:
                    None if len(outputs) == self.engine.n_outputs else outputs, rerun)
 
     def _outputs_of(self, name: str) -> tuple:
-        """``(outputs of a row of source name alone,)``: None for every output (cached)."""
+        """Return ``(outputs of a row of source name alone,)``: None for every output."""
         outputs = self.engine.sources[name].sorted_outputs
         return (None if len(outputs) == self.engine.n_outputs else outputs,)
 

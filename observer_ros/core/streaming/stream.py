@@ -14,8 +14,8 @@
 
 """The event stream: an estimator run on the rows of the event engine, event by event."""
 
-import math
 from collections import Counter
+import math
 from typing import Optional, Sequence
 
 import numpy as np
@@ -362,7 +362,7 @@ class EventStream(SourceUpdates, SteadyPath, RecordedReplay):
 
     def _inside_limits(self, estimate, innovation) -> bool:
         """
-        The common case of :meth:`_publishable` in one test: both arrays finite and inside.
+        Say whether both arrays are finite and inside: :meth:`_publishable`'s common case.
 
         False says nothing (another type, or a value to look at): :meth:`_publishable` rules.
         """
