@@ -162,12 +162,10 @@ class InputHistory:
 
     def prune(self, previous: Optional[int]) -> None:
         """Drop inputs no interval after ``previous`` can need (and beyond the most kept)."""
-        if previous is None:
-            keep_from = max(0, len(self.stamps) - MAX_INPUTS)
-        else:
-            keep_from = max(0, self.index_at(previous))
-            keep_from = max(keep_from, len(self.stamps) - MAX_INPUTS)
-        if keep_from:
+        keep_from = len(self.stamps) - MAX_INPUTS
+        if previous is not None:
+            keep_from = max(keep_from, bisect.bisect_right(self.stamps, previous) - 1)
+        if keep_from > 0:
             del self.stamps[:keep_from]
             del self.values[:keep_from]
 

@@ -162,7 +162,9 @@ class EventEngine(Admission, InputPairing, RecordedEvents):
             spec = self._source(source, 'input')  # says what is expected
         self.counters['inputs'] += 1
         stamp_ns = int(stamp_ns)
-        vector = np.array(u, dtype=float).reshape(-1)
+        vector = np.array(u, dtype=float)
+        if vector.ndim != 1:
+            vector = vector.reshape(-1)
         if not self.accept(spec, stamp_ns, vector, now_ns):
             return []
         self.inputs.store(stamp_ns, vector)
@@ -191,7 +193,9 @@ class EventEngine(Admission, InputPairing, RecordedEvents):
             spec = self._source(source, 'measurement')  # says what is expected
         self.counters['measurements'] += 1
         stamp_ns = int(stamp_ns)
-        vector = np.asarray(y, dtype=float).reshape(-1)  # copied if it is kept
+        vector = np.asarray(y, dtype=float)  # copied if it is kept
+        if vector.ndim != 1:
+            vector = vector.reshape(-1)
         return self.timeline.measurement(spec, stamp_ns, vector, now_ns, int(arrival_ns))
 
     def _enqueue(self, source: str, stamp_ns: int, values, arrival_ns: int) -> None:

@@ -157,14 +157,13 @@ class History:
         outputs = self.engine.sources[name].sorted_outputs
         return (None if len(outputs) == self.engine.n_outputs else outputs,)
 
-    def _take_entry(self, entry: HistoryEntry, u: np.ndarray, interval: int,
-                    rerun: bool) -> list:
+    def _take_entry(self, entry: HistoryEntry, row: Row) -> list:
         """Save the consumer's state, keep ``entry`` last in the history and take its row."""
         consumer = self.engine.consumer
         entry.state = consumer.save()
         self.entries.append(entry)
         try:
-            produced = consumer.take(self._row(entry, u, interval, rerun))
+            produced = consumer.take(row)
         except Exception:  # noqa: B902 - whatever failed, the states kept may not follow on
             self.clear()
             raise
@@ -180,7 +179,11 @@ class History:
         entry = HistoryEntry(stamp_ns, {name: (values, arrival_ns)})
         self.per_source[name]['used'] += 1
         self._last_seen[name] = (stamp_ns, arrival_ns)
-        produced = self._take_entry(entry, u, interval, False)
+        outputs = self._row_outputs.get(name)  # the row of _row, made from the parts at hand
+        if outputs is None:
+            outputs = self._row_outputs[name] = self._outputs_of(name)
+        produced = self._take_entry(entry, Row(name, stamp_ns, values, u, interval, arrival_ns,
+                                               outputs[0], False))
         self._prune()
         return produced
 
@@ -231,7 +234,7 @@ class History:
                 u, interval = self.engine.zero_input, 0
             else:
                 u, interval = self.engine.held_input(previous), entry.stamp_ns - previous
-            produced = self._take_entry(entry, u, interval, True)
+            produced = self._take_entry(entry, self._row(entry, u, interval, True))
             previous = entry.stamp_ns
         counters = self.engine.counters
         counters['reruns'] += 1

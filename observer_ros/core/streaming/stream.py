@@ -19,6 +19,7 @@ import math
 from typing import Optional, Sequence
 
 import numpy as np
+from numpy import ndarray
 
 from observer_ros.core.estimates import EstimateSample, SourceSample
 from observer_ros.core.estimators import (
@@ -339,10 +340,17 @@ class EventStream(SourceUpdates, SteadyPath, RecordedReplay):
             estimate = estimator.advance_outputs(stamp_ns, y if update else NO_VALUES, u,
                                                  update)
         innovation = estimator.innovation
-        if self._fast or not self._inside_limits(estimate, innovation):
-            if not self._publishable(estimate, innovation,
-                                     estimator.result if self._fast else None):
-                return []
+        inside = False
+        if not self._fast and type(estimate) is ndarray and type(innovation) is ndarray:
+            # _publishable's common case in one test, a dot product each (within_limit's)
+            limits = self.limits
+            square, limit = estimate.dot(estimate), limits.estimate
+            if square < math.inf and square <= limit * limit:
+                square, limit = innovation.dot(innovation), limits.innovation
+                inside = square < math.inf and square <= limit * limit
+        if not inside and not self._publishable(estimate, innovation,
+                                                estimator.result if self._fast else None):
+            return []
         covariance = estimator.innovation_covariance
         # The protocol's NIS is computed from the innovation and S when first read.
         nis = None if covariance is None or self._lazy_nis else estimator.nis
@@ -359,21 +367,6 @@ class EventStream(SourceUpdates, SteadyPath, RecordedReplay):
             return [sample]
         self.engine.await_input(stamp_ns, sample, arrival_ns)
         return []
-
-    def _inside_limits(self, estimate, innovation) -> bool:
-        """
-        Say whether both arrays are finite and inside: :meth:`_publishable`'s common case.
-
-        False says nothing (another type, or a value to look at): :meth:`_publishable` rules.
-        """
-        if type(estimate) is not np.ndarray or type(innovation) is not np.ndarray:
-            return False
-        limits = self.limits
-        square, limit = estimate.dot(estimate), limits.estimate  # within_limit's common case
-        if not (square < math.inf and square <= limit * limit):
-            return False
-        square, limit = innovation.dot(innovation), limits.innovation
-        return square < math.inf and square <= limit * limit
 
     def _delayed(self, sample: EstimateSample, u: np.ndarray) -> EstimateSample:
         """Return the prediction ``x[k+1|k]`` of a current sample, with the next input ``u``."""
