@@ -15,7 +15,7 @@
 """The event stream: an estimator run on the rows of the event engine, event by event."""
 
 from collections import Counter
-import math
+from math import inf, isfinite
 from typing import Optional, Sequence
 
 import numpy as np
@@ -25,7 +25,7 @@ from observer_ros.core.estimates import EstimateSample, SourceSample
 from observer_ros.core.estimators import (
     Estimator, Prediction, SteadySteps, without_feedthrough)
 from observer_ros.core.events import EventEngine, INPUT, MEASUREMENT, PREDICTION
-from observer_ros.core.rules import ValueLimits, within_limit
+from observer_ros.core.rules import SHORT, ValueLimits, within_limit
 from observer_ros.core.sources import MeasurementSource
 from observer_ros.core.streaming.recorded import RecordedReplay
 from observer_ros.core.streaming.sources import SourceUpdates
@@ -341,13 +341,18 @@ class EventStream(SourceUpdates, SteadyPath, RecordedReplay):
                                                  update)
         innovation = estimator.innovation
         inside = False
-        if not self._fast and type(estimate) is ndarray and type(innovation) is ndarray:
-            # _publishable's common case in one test, a dot product each (within_limit's)
+        if (not self._fast and type(estimate) is ndarray and type(innovation) is ndarray
+                and len(estimate) <= SHORT and len(innovation) <= SHORT):
+            # _publishable's common case in one test, within_limit's rule inline (as in the
+            # engine's admission): finite sums, then the largest magnitudes
             limits = self.limits
-            square, limit = estimate.dot(estimate), limits.estimate
-            if square < math.inf and square <= limit * limit:
-                square, limit = innovation.dot(innovation), limits.innovation
-                inside = square < math.inf and square <= limit * limit
+            values, limit = estimate.tolist(), limits.estimate
+            if isfinite(sum(values)) and (limit == inf or -limit <= min(values, default=0.0)
+                                          and max(values, default=0.0) <= limit):
+                values, limit = innovation.tolist(), limits.innovation
+                inside = isfinite(sum(values)) and (
+                    limit == inf or -limit <= min(values, default=0.0)
+                    and max(values, default=0.0) <= limit)
         if not inside and not self._publishable(estimate, innovation,
                                                 estimator.result if self._fast else None):
             return []
