@@ -292,12 +292,11 @@ class History:
         horizon = entries[-1].stamp_ns - self.engine.history_ns
         if entries[0].stamp_ns >= horizon:
             return  # nothing older than the history (the entries are in stamp order)
-        drop = 0
-        while drop < len(entries) - 1 and entries[drop].stamp_ns < horizon:
+        drop, newest = 1, len(entries) - 1  # the first goes (it is not the newest: see above)
+        while drop < newest and entries[drop].stamp_ns < horizon:
             drop += 1
-        if drop:
-            self._base_ns = entries[drop - 1].stamp_ns
-            self._retire(drop)
+        self._base_ns = entries[drop - 1].stamp_ns
+        self._retire(drop)
 
     def _retire(self, count: int) -> None:
         """Forget the oldest ``count`` entries, collected in :attr:`retired` when it is a list."""

@@ -440,9 +440,11 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
         if self._one is not None:
             self._unpack_one()
         stamp = self._stamp
+        if stamp is not None:
+            return (self._x.copy(), self._p.copy(), self._innovation, self._s, self._k,
+                    self._nis, stamp, None, None)
         return (self._x.copy(), self._p.copy(), self._innovation, self._s, self._k,
-                self._nis, stamp, None if stamp is not None else self._prior_x.copy(),
-                None if stamp is not None else self._prior_p.copy())
+                self._nis, stamp, self._prior_x.copy(), self._prior_p.copy())
 
     def restore(self, state: tuple) -> None:
         """Return to a state taken by :meth:`snapshot`."""
