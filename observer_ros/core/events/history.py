@@ -237,13 +237,22 @@ class History:
         engine = self.engine
         consumer, held_input, row_of, take = (engine.consumer, engine.held_input, self._row,
                                               self._take_entry)
+        row_outputs = self._row_outputs
         for entry in again:
+            stamp = entry.stamp_ns
             if previous is None or not entries and consumer.stamp_ns is None:
                 u, interval = engine.zero_input, 0
             else:
-                u, interval = held_input(previous), entry.stamp_ns - previous
-            produced = take(entry, row_of(entry, u, interval, True))
-            previous = entry.stamp_ns
+                u, interval = held_input(previous), stamp - previous
+            parts = entry.parts
+            if len(parts) == 1 and next(iter(parts)) in row_outputs:  # _row's usual case
+                ((name, (values, arrival)),) = parts.items()
+                row = new_tuple(Row, (name, stamp, values, u, interval, arrival,
+                                      row_outputs[name][0], True))
+            else:
+                row = row_of(entry, u, interval, True)
+            produced = take(entry, row)
+            previous = stamp
         counters = self.engine.counters
         counters['reruns'] += 1
         counters['rerun_rows'] += len(again)
