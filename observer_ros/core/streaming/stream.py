@@ -340,12 +340,10 @@ class EventStream(SourceUpdates, SteadyPath, RecordedReplay):
             estimate = estimator.advance_outputs(stamp_ns, y if update else NO_VALUES, u,
                                                  update)
         innovation = estimator.innovation
-        inside = False
+        inside = False  # _publishable's common case in one test, within_limit's rule inline
         if (not self._fast and type(estimate) is ndarray and type(innovation) is ndarray
                 and len(estimate) <= SHORT and len(innovation) <= SHORT):
-            # _publishable's common case in one test, within_limit's rule inline (as in the
-            # engine's admission): finite sums, then the largest magnitudes
-            limits = self.limits
+            limits = self.limits  # finite sums, then the extremes (as the engine's admission)
             values, limit = estimate.tolist(), limits.estimate
             if isfinite(sum(values)) and (limit == inf or -limit <= min(values, default=0.0)
                                           and max(values, default=0.0) <= limit):
@@ -359,13 +357,12 @@ class EventStream(SourceUpdates, SteadyPath, RecordedReplay):
         covariance = estimator.innovation_covariance
         # The protocol's NIS is computed from the innovation and S when first read.
         nis = None if covariance is None or self._lazy_nis else estimator.nis
-        if outputs is None and not rerun:
+        if not rerun:
             self.engine.counters['estimates'] += 1
+        if outputs is None and not rerun:
             sample = EstimateSample(stamp_ns, estimate, innovation, estimator.covariance,
                                     covariance, nis)
         else:
-            if not rerun:
-                self.engine.counters['estimates'] += 1
             sample = SourceSample(stamp_ns, estimate.copy(), innovation, estimator.covariance,
                                   covariance, nis, None if outputs is None else update, rerun)
         if self.form == 'current':
