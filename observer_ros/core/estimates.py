@@ -100,8 +100,12 @@ class SourceSample(EstimateSample):
     def __init__(self, stamp_ns: int, estimate, innovation, covariance=None,
                  innovation_covariance=None, nis: Optional[float] = None,
                  outputs: Optional[tuple] = None, corrected: bool = False) -> None:
-        super().__init__(stamp_ns, estimate, innovation, covariance, innovation_covariance,
-                         nis)
+        self.stamp_ns = stamp_ns  # EstimateSample's fields set here: one call per sample
+        self.estimate = estimate
+        self.innovation = innovation
+        self.covariance = covariance
+        self.innovation_covariance = innovation_covariance
+        self._nis = nis
         self.outputs = outputs
         self.corrected = corrected
 

@@ -71,6 +71,11 @@ def rows_within(rows: np.ndarray, limit: float) -> tuple:
     return finite, inside
 
 
+#: Vectors up to this length are checked as lists of floats where the value rule is inline
+#: on a hot path (their sum, minimum and maximum: faster than a dot product on a few values).
+SHORT = 16
+
+
 def within_limit(values, limit: float) -> bool:
     """
     Whether every entry of ``values`` (a vector, or one float) is finite and within ``limit``.
@@ -134,6 +139,11 @@ class InputHistory:
 
     def store(self, stamp_ns: int, vector) -> None:
         """Keep an input in stamp order; a repeated stamp replaces the earlier input."""
+        stamps = self.stamps
+        if not stamps or stamp_ns > stamps[-1]:  # the usual case: the newest input
+            stamps.append(stamp_ns)
+            self.values.append(vector)
+            return
         index = bisect.bisect_left(self.stamps, stamp_ns)
         if index < len(self.stamps) and self.stamps[index] == stamp_ns:
             self.values[index] = vector
@@ -157,12 +167,10 @@ class InputHistory:
 
     def prune(self, previous: Optional[int]) -> None:
         """Drop inputs no interval after ``previous`` can need (and beyond the most kept)."""
-        if previous is None:
-            keep_from = max(0, len(self.stamps) - MAX_INPUTS)
-        else:
-            keep_from = max(0, self.index_at(previous))
-            keep_from = max(keep_from, len(self.stamps) - MAX_INPUTS)
-        if keep_from:
+        keep_from = len(self.stamps) - MAX_INPUTS
+        if previous is not None:
+            keep_from = max(keep_from, bisect.bisect_right(self.stamps, previous) - 1)
+        if keep_from > 0:
             del self.stamps[:keep_from]
             del self.values[:keep_from]
 

@@ -157,10 +157,14 @@ class EventEngine(Admission, InputPairing, RecordedEvents):
         ``now_ns`` is the receiver's clock at arrival, for the clock tolerance (None: no
         check).
         """
-        spec = self._source(source, 'input')
+        spec = self.sources.get(source)
+        if spec is None or spec.role != 'input':
+            spec = self._source(source, 'input')  # says what is expected
         self.counters['inputs'] += 1
         stamp_ns = int(stamp_ns)
-        vector = np.array(u, dtype=float).reshape(-1)
+        vector = np.array(u, dtype=float)
+        if vector.ndim != 1:
+            vector = vector.reshape(-1)
         if not self.accept(spec, stamp_ns, vector, now_ns):
             return []
         self.inputs.store(stamp_ns, vector)
@@ -171,7 +175,10 @@ class EventEngine(Admission, InputPairing, RecordedEvents):
             # Not while a backward jump (a looping bag) is under way; with a history, keep
             # the inputs of its rows (without one, of the newest row that may be re-taken).
             self.inputs.prune(timeline.oldest_previous(previous))
-        return timeline.input_arrived(stamp_ns, previous) + self.process(force=False)
+        arrived = timeline.input_arrived(stamp_ns, previous)
+        if not self.queue:  # nothing waits: nothing more for process() to take
+            return arrived
+        return arrived + self.process(force=False)
 
     def add_measurement(self, stamp_ns: int, y, now_ns: Optional[int] = None,
                         arrival_ns: int = 0, source: str = MEASUREMENT) -> list:
@@ -181,10 +188,14 @@ class EventEngine(Admission, InputPairing, RecordedEvents):
         ``now_ns`` is the receiver's clock at arrival (see :meth:`add_input`);
         ``arrival_ns`` any monotonic arrival time the caller wants back from :meth:`waiting`.
         """
-        spec = self._source(source, 'measurement')
+        spec = self.sources.get(source)
+        if spec is None or spec.role != 'measurement':
+            spec = self._source(source, 'measurement')  # says what is expected
         self.counters['measurements'] += 1
         stamp_ns = int(stamp_ns)
-        vector = np.asarray(y, dtype=float).reshape(-1)  # copied if it is kept
+        vector = np.asarray(y, dtype=float)  # copied if it is kept
+        if vector.ndim != 1:
+            vector = vector.reshape(-1)
         return self.timeline.measurement(spec, stamp_ns, vector, now_ns, int(arrival_ns))
 
     def _enqueue(self, source: str, stamp_ns: int, values, arrival_ns: int) -> None:

@@ -23,6 +23,10 @@ import numpy as np
 from observer_ros.core.events.records import Event, HistoryEntry, LATE, Row, Source
 from observer_ros.core.rules import in_sequence
 
+#: ``new_tuple(Row, fields)`` makes a row of all eight fields without the named tuple's
+#: Python-level ``__new__`` (a third of its cost; a row is made per update and re-run row).
+new_tuple = tuple.__new__
+
 
 class History:
     """
@@ -48,6 +52,8 @@ class History:
         self.per_source = {source.name: Counter() for source in sources}
         self._last_seen: dict = {}
         self.max_lag: Counter = Counter()
+        #: ``{source name: (outputs of its rows alone,)}``, made once per source.
+        self._row_outputs: dict = {}
 
     def order(self, queue: list, event: Event) -> None:
         """Queue ``event`` by stamp, then by arrival: the history's ordering rule."""
@@ -62,7 +68,10 @@ class History:
 
     def taken(self, event: Event, u: np.ndarray, interval: int) -> list:
         """Take an admitted measurement: a new newest entry, or a late one inserted."""
-        return self._rerun(event) if interval == LATE else self._take_new(event, u, interval)
+        if interval == LATE:
+            return self._rerun(event)
+        return self._take_new(event.source, event.stamp_ns, event.values, event.arrival_ns, u,
+                              interval)
 
     def admit_back(self, event: Event, previous: int, step: int) -> Optional[int]:
         """Apply the stamp rules to a measurement at or before the newest, with a history."""
@@ -112,59 +121,74 @@ class History:
                     now_ns: Optional[int], arrival_ns: int) -> list:
         """Take a sample of :meth:`EventEngine.add_measurement`, its latency off."""
         stamp_ns -= spec.latency_ns
-        self.per_source[spec.name]['received'] += 1
-        if not self.engine.accept(spec, stamp_ns, vector, now_ns):
+        name = spec.name
+        self.per_source[name]['received'] += 1
+        engine = self.engine
+        if not engine.accept(spec, stamp_ns, vector, now_ns):
             return []
         values = vector[spec.order] if spec.order is not None else vector.copy()
-        if not self.engine.queue:  # the common case: process()'s routine for a queue of one
-            previous = self.engine.consumer.stamp_ns
-            if (previous is not None and in_sequence(stamp_ns - previous, self.engine.max_gap_ns)
-                    and self.engine.ready(stamp_ns if self.engine.pairs_at_stamp else previous)):
-                self.engine._sequence += 1
-                event = Event(spec.name, stamp_ns, values, self.engine._sequence, arrival_ns)
-                return self._take_new(event, self.engine.input_for(previous), stamp_ns - previous)
-        self.engine._enqueue(spec.name, stamp_ns, values, arrival_ns)
-        return self.engine.process(force=False)
+        if not engine.queue:  # the common case: process()'s routine for a queue of one
+            previous = engine.consumer.stamp_ns
+            if (previous is not None and in_sequence(stamp_ns - previous, engine.max_gap_ns)
+                    and engine.ready(stamp_ns if engine.pairs_at_stamp else previous)):
+                engine._sequence += 1  # the event's number, as if it had been queued
+                return self._take_new(name, stamp_ns, values, arrival_ns,
+                                      engine.input_for(previous), stamp_ns - previous)
+        engine._enqueue(name, stamp_ns, values, arrival_ns)
+        return engine.process(force=False)
 
     def _row(self, entry: HistoryEntry, u: np.ndarray, interval: int, rerun: bool) -> Row:
         """Return the row of a history entry: its samples fused in ascending output order."""
         parts = entry.parts
         if len(parts) == 1:
             ((name, (values, arrival)),) = parts.items()
-            outputs = self.engine.sources[name].sorted_outputs
-        else:
-            names = sorted(parts, key=lambda key: self.engine.sources[key].sorted_outputs[0])
-            pairs = sorted((index, value) for key in names for index, value in
-                           zip(self.engine.sources[key].sorted_outputs, parts[key][0].tolist()))
-            outputs = tuple(index for index, _ in pairs)
-            values = np.array([value for _, value in pairs])
-            name = '+'.join(names)
-            arrival = max(part[1] for part in parts.values())
+            outputs = self._row_outputs.get(name)
+            if outputs is None:
+                outputs = self._row_outputs[name] = self._outputs_of(name)
+            return new_tuple(Row, (name, entry.stamp_ns, values, u, interval, arrival,
+                                   outputs[0], rerun))
+        names = sorted(parts, key=lambda key: self.engine.sources[key].sorted_outputs[0])
+        pairs = sorted((index, value) for key in names for index, value in
+                       zip(self.engine.sources[key].sorted_outputs, parts[key][0].tolist()))
+        outputs = tuple(index for index, _ in pairs)
+        values = np.array([value for _, value in pairs])
+        name = '+'.join(names)
+        arrival = max(part[1] for part in parts.values())
         return Row(name, entry.stamp_ns, values, u, interval, arrival,
                    None if len(outputs) == self.engine.n_outputs else outputs, rerun)
 
-    def _take_entry(self, entry: HistoryEntry, u: np.ndarray, interval: int,
-                    rerun: bool) -> list:
+    def _outputs_of(self, name: str) -> tuple:
+        """Return ``(outputs of a row of source name alone,)``: None for every output."""
+        outputs = self.engine.sources[name].sorted_outputs
+        return (None if len(outputs) == self.engine.n_outputs else outputs,)
+
+    def _take_entry(self, entry: HistoryEntry, row: Row) -> list:
         """Save the consumer's state, keep ``entry`` last in the history and take its row."""
-        entry.state = self.engine.consumer.save()
+        consumer = self.engine.consumer
+        entry.state = consumer.save()
         self.entries.append(entry)
         try:
-            produced = self.engine.consumer.take(self._row(entry, u, interval, rerun))
+            produced = consumer.take(row)
         except Exception:  # noqa: B902 - whatever failed, the states kept may not follow on
             self.clear()
             raise
         entry.result = produced[-1] if produced else None
-        if self.engine.consumer.stamp_ns is None:  # the consumer restarted from its initial state
+        if consumer.stamp_ns is None:  # the consumer restarted from its initial state
             self._retire(len(self.entries))
             self._base_ns = self._floor_ns = None
         return produced
 
-    def _take_new(self, event: Event, u: np.ndarray, interval: int) -> list:
-        """Take a measurement that follows on (or starts): a new newest entry."""
-        entry = HistoryEntry(event.stamp_ns, {event.source: (event.values, event.arrival_ns)})
-        self.per_source[event.source]['used'] += 1
-        self._last_seen[event.source] = (event.stamp_ns, event.arrival_ns)
-        produced = self._take_entry(entry, u, interval, False)
+    def _take_new(self, name: str, stamp_ns: int, values: np.ndarray, arrival_ns: int,
+                  u: np.ndarray, interval: int) -> list:
+        """Take a measurement of ``name`` that follows on (or starts): a new newest entry."""
+        entry = HistoryEntry(stamp_ns, {name: (values, arrival_ns)})
+        self.per_source[name]['used'] += 1
+        self._last_seen[name] = (stamp_ns, arrival_ns)
+        outputs = self._row_outputs.get(name)  # the row of _row, made from the parts at hand
+        if outputs is None:
+            outputs = self._row_outputs[name] = self._outputs_of(name)
+        produced = self._take_entry(entry, new_tuple(Row, (name, stamp_ns, values, u, interval,
+                                                           arrival_ns, outputs[0], False)))
         self._prune()
         return produced
 
@@ -210,13 +234,25 @@ class History:
         del entries[index:]
         previous = entries[-1].stamp_ns if entries else self._base_ns
         produced: list = []
+        engine = self.engine
+        consumer, held_input, row_of, take = (engine.consumer, engine.held_input, self._row,
+                                              self._take_entry)
+        row_outputs = self._row_outputs
         for entry in again:
-            if previous is None or not self.entries and self.engine.consumer.stamp_ns is None:
-                u, interval = self.engine.zero_input, 0
+            stamp = entry.stamp_ns
+            if previous is None or not entries and consumer.stamp_ns is None:
+                u, interval = engine.zero_input, 0
             else:
-                u, interval = self.engine.held_input(previous), entry.stamp_ns - previous
-            produced = self._take_entry(entry, u, interval, True)
-            previous = entry.stamp_ns
+                u, interval = held_input(previous), stamp - previous
+            parts = entry.parts
+            if len(parts) == 1 and next(iter(parts)) in row_outputs:  # _row's usual case
+                ((name, (values, arrival)),) = parts.items()
+                row = new_tuple(Row, (name, stamp, values, u, interval, arrival,
+                                      row_outputs[name][0], True))
+            else:
+                row = row_of(entry, u, interval, True)
+            produced = take(entry, row)
+            previous = stamp
         counters = self.engine.counters
         counters['reruns'] += 1
         counters['rerun_rows'] += len(again)
@@ -260,13 +296,16 @@ class History:
     def _prune(self) -> None:
         """Forget the entries older than the history (the newest is always kept)."""
         entries = self.entries
-        horizon = entries[-1].stamp_ns - self.engine.history_ns if entries else 0
-        drop = 0
-        while drop < len(entries) - 1 and entries[drop].stamp_ns < horizon:
+        if not entries:
+            return
+        horizon = entries[-1].stamp_ns - self.engine.history_ns
+        if entries[0].stamp_ns >= horizon:
+            return  # nothing older than the history (the entries are in stamp order)
+        drop, newest = 1, len(entries) - 1  # the first goes (it is not the newest: see above)
+        while drop < newest and entries[drop].stamp_ns < horizon:
             drop += 1
-        if drop:
-            self._base_ns = entries[drop - 1].stamp_ns
-            self._retire(drop)
+        self._base_ns = entries[drop - 1].stamp_ns
+        self._retire(drop)
 
     def _retire(self, count: int) -> None:
         """Forget the oldest ``count`` entries, collected in :attr:`retired` when it is a list."""

@@ -14,6 +14,7 @@
 
 """The pairing rule: which input a measurement's interval takes, and when it is known."""
 
+from bisect import bisect_right
 from typing import Optional
 
 import numpy as np
@@ -34,7 +35,7 @@ class InputPairing:
     def input_for(self, previous: int) -> np.ndarray:
         """Return the input of the interval after ``previous`` (latest at or before it)."""
         stamps = self.inputs.stamps
-        index = self.inputs.index_at(previous)
+        index = bisect_right(stamps, previous) - 1  # InputHistory.index_at, one call less
         if index < 0:
             if self.autonomous:
                 return self.zero_input
@@ -51,8 +52,9 @@ class InputPairing:
 
     def held_input(self, stamp_ns: int) -> np.ndarray:
         """Return the latest input stamped at or before ``stamp_ns`` (zero before the first)."""
-        index = self.inputs.index_at(stamp_ns)
-        return self.inputs.values[index] if index >= 0 else self.zero_input
+        inputs = self.inputs
+        index = bisect_right(inputs.stamps, stamp_ns) - 1  # InputHistory.index_at, inline
+        return inputs.values[index] if index >= 0 else self.zero_input
 
     def time_base_event(self, offset_ns: int) -> None:
         """Note inputs stamped further from the measurements than the gap limit."""

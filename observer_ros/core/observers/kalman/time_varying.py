@@ -172,7 +172,8 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
     @property
     def innovation(self) -> np.ndarray:
         """Last innovation ``y - C x-``."""
-        self._unpack_one()
+        if self._one is not None:
+            self._unpack_one()
         return self._innovation.copy()
 
     @property
@@ -183,7 +184,8 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
     @property
     def innovation_covariance(self) -> Optional[np.ndarray]:
         """``S`` of the last update (None before the first)."""
-        self._unpack_one()
+        if self._one is not None:
+            self._unpack_one()
         return self._s
 
     @property
@@ -428,10 +430,21 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
         self._stamp = None
 
     def snapshot(self) -> tuple:
-        """Return the running state, for :meth:`restore`."""
-        self._unpack_one()
-        return (self._x.copy(), self._p.copy(), self._innovation.copy(), self._s, self._k,
-                self._nis, self._stamp, self._prior_x.copy(), self._prior_p.copy())
+        """
+        Return the running state, for :meth:`restore`.
+
+        The innovation is kept as it is (the filter replaces it, never changes it, and hands
+        out copies); the prior ``(x0, P0)`` only where the next sample starts from it (no
+        stamp yet): after a first sample it is not read until a reset or a restart sets it.
+        """
+        if self._one is not None:
+            self._unpack_one()
+        stamp = self._stamp
+        if stamp is not None:
+            return (self._x.copy(), self._p.copy(), self._innovation, self._s, self._k,
+                    self._nis, stamp, None, None)
+        return (self._x.copy(), self._p.copy(), self._innovation, self._s, self._k,
+                self._nis, stamp, self._prior_x.copy(), self._prior_p.copy())
 
     def restore(self, state: tuple) -> None:
         """Return to a state taken by :meth:`snapshot`."""
@@ -439,7 +452,8 @@ class TimeVaryingKalman(IntervalDesigns, PinnedInitialState, SubsetUpdates, Esti
          prior_p) = state
         self._x, self._p, self._innovation = x.copy(), p.copy(), innovation.copy()
         self._one = None
-        self._prior_x, self._prior_p = prior_x.copy(), prior_p.copy()
+        if prior_x is not None:  # else the prior is not read before a reset or restart
+            self._prior_x, self._prior_p = prior_x.copy(), prior_p.copy()
 
     def adopt(self, other: Estimator) -> None:
         """Take the noises, ``P0`` and resolution of ``other``; keep ``x``, ``P`` and stamps."""
