@@ -42,7 +42,9 @@ LAYERS = tuple(os.path.join(os.path.dirname(observer_ros.__file__), folder, '')
 
 #: Calls into those layers for one steady ``y`` (estimate published) and its ``u``
 #: (19 and 10 before the callbacks were written out).
-CALL_BUDGET = {'y': 11, 'u': 5}
+# One call more each than the inline version measured (11, 5): what follows every answer
+# (publish, the input wait, the health count) is one method, _answered, not three copies.
+CALL_BUDGET = {'y': 12, 'u': 6}
 
 
 def layer_calls(callback, raw: bytes) -> Counter:

@@ -315,8 +315,8 @@ class ObserverPart:
         """
         Take a ``y``: the estimate out first, then the bookkeeping.
 
-        The node's busiest message: :meth:`_decode`, :meth:`run` and :meth:`_tick` are
-        written out here (the same steps in the same order, fewer calls).
+        The node's busiest message: :meth:`_decode` and :meth:`run` are written out here,
+        then :meth:`_answered` (the same steps in the same order, fewer calls).
         """
         try:
             stamp, y = self._decode_y(message)
@@ -334,15 +334,7 @@ class ObserverPart:
                                              time.monotonic_ns())
         except STEP_ERRORS as e:
             samples = self._step_failed(e)
-        if samples:
-            self.publish(samples)
-        elif stream.events:
-            self._warn_events()
-        if self._waiting_for is not None or stream.waiting() is not None:
-            self._arm_wait_timer()
-        health = self.health
-        if 'y' in health.monitors:
-            health.tick('y', given)
+        self._answered(samples, 'y', given)
 
     def on_source(self, name: str, message) -> None:
         """Take a message of the measurement source ``name``."""
@@ -365,8 +357,8 @@ class ObserverPart:
         """
         Take a ``u`` (the estimates it releases are published).
 
-        The steps of :meth:`_decode`, :meth:`run` and :meth:`_tick` written out, as for
-        ``y``.
+        The steps of :meth:`_decode` and :meth:`run` written out, then :meth:`_answered`,
+        as for ``y``.
         """
         try:
             stamp, u = self._decode_u(message)
@@ -384,15 +376,7 @@ class ObserverPart:
                 samples = stream.add_input(stamp, u, self._clock_for(stamp))
         except STEP_ERRORS as e:
             samples = self._step_failed(e)
-        if samples:
-            self.publish(samples)
-        elif stream.events:
-            self._warn_events()
-        if self._waiting_for is not None or stream.waiting() is not None:
-            self._arm_wait_timer()
-        health = self.health
-        if 'u' in health.monitors:
-            health.tick('u', given)
+        self._answered(samples, 'u', given)
 
     def _on_wait_expired(self) -> None:
         self.wait_timer.cancel()
@@ -405,11 +389,27 @@ class ObserverPart:
             samples = call(*args)
         except STEP_ERRORS as e:
             samples = self._step_failed(e)
+        self._answered(samples)
+
+    def _answered(self, samples: list, topic: Optional[str] = None, given=None) -> None:
+        """
+        Publish what a stream call produced; then arm the input wait and count ``topic``.
+
+        What follows every stream call, the answer first: the estimates published (or the
+        stream's events warned), the wait for a late input armed or cancelled, and the
+        message counted in its topic's health (``given``: its stamp as received).
+        """
+        stream = self.stream
         if samples:
             self.publish(samples)
-        elif self.stream.events:
+        elif stream.events:
             self._warn_events()
-        self._arm_wait_timer()
+        if self._waiting_for is not None or stream.waiting() is not None:
+            self._arm_wait_timer()
+        if topic is not None:
+            health = self.health
+            if topic in health.monitors:
+                health.tick(topic, given)
 
     def _step_failed(self, error: Exception) -> list:
         """Count and report a failed step; the estimator restarts. Returns no estimates."""
