@@ -462,3 +462,28 @@ def test_the_steady_path_the_general_path_and_the_batch_replay_agree(messy, seed
                           [e[3] for e in inputs], [e[3] for e in outputs])
     assert result.stamps_ns.tolist() == [s for s, _ in expected]
     assert np.array_equal(result.estimates, np.array([e for _, e in expected]))
+
+
+@pytest.mark.parametrize('largest_y', [0.0, 1.0, 1e3, 1e300, math.inf, math.nan])
+@pytest.mark.parametrize('limit', [1e-3, 10.0, 1e9, math.inf])
+def test_the_prepared_step_s_bound_is_the_array_rule_s(largest_y, limit):
+    # prepare says whether every y within largest_y keeps the result within limit, as
+    # isfinite(|known| + |g_y| largest_y).all() and its max <= limit on arrays (numpy's
+    # operations); it computes that on Python floats, which must give the same answer.
+    stream, _ = double_integrator_stream()
+    estimator = stream.estimator
+    for stamp, u, y in samples(5):
+        stream.add_input(stamp, u)
+        stream.add_measurement(stamp, y)
+    seen = set()
+    for scale in (1.0, 1e200, -1e308):
+        u = np.array([scale])
+        estimator._prepared = None
+        estimator.prepare(u, (largest_y, limit))
+        known, step = estimator._prepared[3], estimator._prepared[2]
+        reach = np.abs(known) + np.abs(step.g_y_column) * largest_y
+        expected = bool(np.isfinite(reach).all() and reach.max() <= limit)
+        assert estimator._prepared[6] is expected, (scale, reach)
+        seen.add(expected)
+    if largest_y == 1.0 and limit == 1e9:
+        assert seen == {True, False}  # both answers are reached

@@ -14,6 +14,7 @@
 
 """The steady fast paths of the constant-gain estimator (SteadySteps)."""
 
+from math import isfinite
 from typing import Optional
 
 import numpy as np
@@ -45,10 +46,11 @@ class ConstantGainSteady(SteadySteps):
         known = self._known_part(step, u)
         floats, bounded = None, False
         if self.n_outputs == 1:  # for advance_prepared: the same sums on Python floats
-            floats = (known.tolist(), step.g_y_column.tolist())
-            if limits is not None:
-                reach = np.abs(known) + np.abs(step.g_y_column) * limits[0]
-                bounded = bool(np.isfinite(reach).all() and reach.max() <= limits[1])
+            floats = known_list, g_y = known.tolist(), step.g_y_column.tolist()
+            if limits is not None:  # |known| + |g_y| |y|, entry by entry, as numpy would
+                largest_y = float(limits[0])
+                reach = [abs(k) + abs(g) * largest_y for k, g in zip(known_list, g_y)]
+                bounded = bool(all(map(isfinite, reach)) and max(reach) <= limits[1])
         self._prepared = (self._x, u, step, known, self.intervals.last_dt_ns, floats, bounded)
 
     def advance_prepared(self, stamp_ns: int, y: float, u: np.ndarray) -> Optional[tuple]:
