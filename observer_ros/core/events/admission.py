@@ -33,19 +33,16 @@ class Admission:
         tolerance = self.clock_tolerance_ns
         if vector.shape == (source.size,) and (not tolerance or now_ns is None or now_ns <= 0
                                                or stamp_ns - now_ns <= tolerance):
-            # within_limit's rule, its common case inline: a finite sum says that every value
-            # is finite, and the largest magnitude is then compared (a list of a few floats:
-            # faster than numpy's dot product); anything else goes to the rule below.
+            # within_limit's rule, its common case inline for a short vector: a finite sum
+            # says that every value is finite, and the extremes are then compared (a list of
+            # a few floats: faster than numpy's dot product); anything else, a longer vector
+            # too, goes to the rule itself below.
             limit = source.limit
             if source.size <= SHORT:
                 values = vector.tolist()
                 if isfinite(sum(values)) and (limit == inf or -limit <= min(values, default=0.0)
                                               and max(values, default=0.0) <= limit):
                     return True  # the common case in one test; the reasons follow
-            else:
-                square = vector.dot(vector)
-                if square < inf and square <= limit * limit:
-                    return True
         if (vector.shape == (source.size,) and within_limit(vector, source.limit)
                 and not ahead_of_clock(stamp_ns, now_ns, tolerance)):
             return True

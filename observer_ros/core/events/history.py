@@ -52,7 +52,7 @@ class History:
         self.per_source = {source.name: Counter() for source in sources}
         self._last_seen: dict = {}
         self.max_lag: Counter = Counter()
-        #: ``{source name: (outputs of its rows alone,)}``, made once per source.
+        #: ``{source name: outputs of its rows alone}`` (None: every output), made once.
         self._row_outputs: dict = {}
 
     def order(self, queue: list, event: Event) -> None:
@@ -142,11 +142,8 @@ class History:
         parts = entry.parts
         if len(parts) == 1:
             ((name, (values, arrival)),) = parts.items()
-            outputs = self._row_outputs.get(name)
-            if outputs is None:
-                outputs = self._row_outputs[name] = self._outputs_of(name)
             return new_tuple(Row, (name, entry.stamp_ns, values, u, interval, arrival,
-                                   outputs[0], rerun))
+                                   self._outputs_alone(name), rerun))
         names = sorted(parts, key=lambda key: self.engine.sources[key].sorted_outputs[0])
         pairs = sorted((index, value) for key in names for index, value in
                        zip(self.engine.sources[key].sorted_outputs, parts[key][0].tolist()))
@@ -157,10 +154,13 @@ class History:
         return Row(name, entry.stamp_ns, values, u, interval, arrival,
                    None if len(outputs) == self.engine.n_outputs else outputs, rerun)
 
-    def _outputs_of(self, name: str) -> tuple:
-        """Return ``(outputs of a row of source name alone,)``: None for every output."""
-        outputs = self.engine.sources[name].sorted_outputs
-        return (None if len(outputs) == self.engine.n_outputs else outputs,)
+    def _outputs_alone(self, name: str) -> Optional[tuple]:
+        """Return the outputs of a row of source ``name`` alone (None: every output)."""
+        row_outputs = self._row_outputs
+        if name not in row_outputs:
+            outputs = self.engine.sources[name].sorted_outputs
+            row_outputs[name] = None if len(outputs) == self.engine.n_outputs else outputs
+        return row_outputs[name]
 
     def _take_entry(self, entry: HistoryEntry, row: Row) -> list:
         """Save the consumer's state, keep ``entry`` last in the history and take its row."""
@@ -184,11 +184,9 @@ class History:
         entry = HistoryEntry(stamp_ns, {name: (values, arrival_ns)})
         self.per_source[name]['used'] += 1
         self._last_seen[name] = (stamp_ns, arrival_ns)
-        outputs = self._row_outputs.get(name)  # the row of _row, made from the parts at hand
-        if outputs is None:
-            outputs = self._row_outputs[name] = self._outputs_of(name)
-        produced = self._take_entry(entry, new_tuple(Row, (name, stamp_ns, values, u, interval,
-                                                           arrival_ns, outputs[0], False)))
+        row = new_tuple(Row, (name, stamp_ns, values, u, interval, arrival_ns,  # as _row's
+                              self._outputs_alone(name), False))
+        produced = self._take_entry(entry, row)
         self._prune()
         return produced
 
@@ -248,7 +246,7 @@ class History:
             if len(parts) == 1 and next(iter(parts)) in row_outputs:  # _row's usual case
                 ((name, (values, arrival)),) = parts.items()
                 row = new_tuple(Row, (name, stamp, values, u, interval, arrival,
-                                      row_outputs[name][0], True))
+                                      row_outputs[name], True))
             else:
                 row = row_of(entry, u, interval, True)
             produced = take(entry, row)

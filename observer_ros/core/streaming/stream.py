@@ -344,13 +344,13 @@ class EventStream(SourceUpdates, SteadyPath, RecordedReplay):
         if (not self._fast and type(estimate) is ndarray and type(innovation) is ndarray
                 and len(estimate) <= SHORT and len(innovation) <= SHORT):
             limits = self.limits  # finite sums, then the extremes (as the engine's admission)
-            values, limit = estimate.tolist(), limits.estimate
-            if isfinite(sum(values)) and (limit == inf or -limit <= min(values, default=0.0)
-                                          and max(values, default=0.0) <= limit):
-                values, limit = innovation.tolist(), limits.innovation
+            for vector, limit in ((estimate, limits.estimate), (innovation, limits.innovation)):
+                values = vector.tolist()
                 inside = isfinite(sum(values)) and (
                     limit == inf or -limit <= min(values, default=0.0)
                     and max(values, default=0.0) <= limit)
+                if not inside:
+                    break
         if not inside and not self._publishable(estimate, innovation,
                                                 estimator.result if self._fast else None):
             return []
