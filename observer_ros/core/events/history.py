@@ -184,8 +184,10 @@ class History:
         entry = HistoryEntry(stamp_ns, {name: (values, arrival_ns)})
         self.per_source[name]['used'] += 1
         self._last_seen[name] = (stamp_ns, arrival_ns)
-        row = new_tuple(Row, (name, stamp_ns, values, u, interval, arrival_ns,  # as _row's
-                              self._outputs_alone(name), False))
+        row_outputs = self._row_outputs  # made once per source (no call after the first)
+        outputs = row_outputs[name] if name in row_outputs else self._outputs_alone(name)
+        row = new_tuple(Row, (name, stamp_ns, values, u, interval, arrival_ns, outputs,
+                              False))  # as _row's
         produced = self._take_entry(entry, row)
         self._prune()
         return produced
